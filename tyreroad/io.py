@@ -1,0 +1,188 @@
+"""Writing and reading tyreroad's netCDF files with provenance.
+
+Every file the pipeline writes goes through :func:`write_dataset`, which
+
+* checks that every data variable and coordinate carries ``units`` and ``long_name``,
+* adds the global provenance attributes required by the specification (tyreroad version,
+  the config section that made the file as YAML text and its SHA-256 hash, creation time),
+* compresses the variables, and
+* writes atomically: the data go to a temporary file in the target directory which is renamed
+  onto the target only after a complete, successful write. A failed job therefore never leaves a
+  partial or stale-looking result file behind.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import datetime as _dt
+import hashlib
+import logging
+import os
+import tempfile
+from pathlib import Path
+from typing import Any, Iterator, Mapping
+
+import numpy as np
+import xarray as xr
+import yaml
+
+logger = logging.getLogger(__name__)
+
+__all__ = [
+    "code_version",
+    "config_yaml",
+    "config_hash",
+    "provenance_attrs",
+    "check_metadata",
+    "write_dataset",
+    "read_dataset",
+    "atomic_path",
+]
+
+
+def code_version() -> str:
+    """Return the installed tyreroad version (``"unknown"`` when not installed)."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("tyreroad")
+    except PackageNotFoundError:  # pragma: no cover - only when run from a bare source tree
+        return "unknown"
+
+
+def _plain(obj: Any) -> Any:
+    """Convert numpy scalars/arrays and tuples into plain YAML-safe Python objects."""
+    if isinstance(obj, Mapping):
+        return {str(k): _plain(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_plain(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return _plain(obj.tolist())
+    if isinstance(obj, np.generic):
+        return obj.item()
+    return obj
+
+
+def config_yaml(section: Mapping[str, Any] | None) -> str:
+    """Serialise a config section as canonical YAML text (sorted keys)."""
+    return yaml.safe_dump(_plain(section or {}), sort_keys=True, default_flow_style=False)
+
+
+def config_hash(section: Mapping[str, Any] | None) -> str:
+    """SHA-256 hex digest of the canonical YAML text of a config section."""
+    return hashlib.sha256(config_yaml(section).encode()).hexdigest()
+
+
+def provenance_attrs(section: Mapping[str, Any] | None, **extra: Any) -> dict[str, str]:
+    """Global attributes recording which code and which config made a file.
+
+    Parameters
+    ----------
+    section : mapping
+        The config section(s) that determined the file's content.
+    **extra
+        Further attributes (e.g. ``stage="greens"``); values are stored as strings.
+    """
+    attrs = {
+        "tyreroad_version": code_version(),
+        "config": config_yaml(section),
+        "config_sha256": config_hash(section),
+        "created": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+        "Conventions": "CF-1.8",
+    }
+    attrs.update({k: str(v) for k, v in extra.items()})
+    return attrs
+
+
+def check_metadata(ds: xr.Dataset) -> None:
+    """Raise ``ValueError`` naming every variable that lacks ``units`` or ``long_name``.
+
+    Dimensionless quantities must say so with ``units="1"``.
+    """
+    missing = []
+    for name, var in {**ds.data_vars, **ds.coords}.items():
+        for key in ("units", "long_name"):
+            if key not in var.attrs:
+                missing.append(f"{name}.{key}")
+    if missing:
+        raise ValueError("dataset variables lack required metadata: " + ", ".join(sorted(missing)))
+
+
+@contextlib.contextmanager
+def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
+    """Yield a temporary path next to ``path``; rename it onto ``path`` only on success.
+
+    On any exception the temporary file is removed and ``path`` is left untouched
+    (an existing file is neither overwritten nor deleted).
+    """
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    os.close(fd)
+    tmp_path = Path(tmp)
+    try:
+        yield tmp_path
+        os.replace(tmp_path, path)
+    finally:
+        if tmp_path.exists():
+            tmp_path.unlink()
+
+
+def _encoding(ds: xr.Dataset) -> dict[str, dict[str, Any]]:
+    enc: dict[str, dict[str, Any]] = {}
+    for name, var in ds.data_vars.items():
+        if var.dtype.kind in "fiub" and var.ndim > 0:
+            enc[name] = {"zlib": True, "complevel": 4}
+    return enc
+
+
+def write_dataset(
+    ds: xr.Dataset,
+    path: str | os.PathLike,
+    config_section: Mapping[str, Any] | None,
+    **extra_attrs: Any,
+) -> Path:
+    """Write ``ds`` to netCDF at ``path`` with provenance, compression and an atomic rename.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        Dataset whose variables and coordinates all carry ``units`` and ``long_name``.
+    path : path-like
+        Target file (``.nc``). Parent directories are created.
+    config_section : mapping
+        Config that made the file; stored as YAML text with its SHA-256 hash.
+    **extra_attrs
+        Further global attributes.
+
+    Returns
+    -------
+    pathlib.Path
+        The written path.
+    """
+    check_metadata(ds)
+    ds = ds.copy()
+    ds.attrs.update(provenance_attrs(config_section, **extra_attrs))
+    # complex variables are not representable in classic netCDF: callers store re/im parts.
+    for name, var in ds.data_vars.items():
+        if np.iscomplexobj(var.values):
+            raise TypeError(f"variable {name!r} is complex; store real and imaginary parts separately")
+    with atomic_path(path) as tmp:
+        ds.to_netcdf(tmp, engine="netcdf4", encoding=_encoding(ds))
+    logger.info("wrote %s", path)
+    return Path(path)
+
+
+def read_dataset(path: str | os.PathLike) -> xr.Dataset:
+    """Load a tyreroad netCDF file fully into memory and close it.
+
+    Raises
+    ------
+    FileNotFoundError
+        With the path in the message when the file does not exist.
+    """
+    path = Path(path)
+    if not path.exists():
+        raise FileNotFoundError(f"{path}: no such tyreroad result file")
+    with xr.open_dataset(path, engine="netcdf4") as ds:
+        return ds.load()
