@@ -1,0 +1,18 @@
+# tyreroad — tyre tread / rough road contact study (Winroth, Andersson & Kropp, JSV 2014).
+# Table of contents only: the logic lives in the tyreroad package, the rules in workflow/rules/.
+
+configfile: "config/config.yaml"
+
+
+include: "workflow/rules/common.smk"
+include: "workflow/rules/surface.smk"
+include: "workflow/rules/springs.smk"
+include: "workflow/rules/greens.smk"
+include: "workflow/rules/contact.smk"
+include: "workflow/rules/study.smk"
+
+
+rule all:
+    default_target: True
+    input:
+        all_targets(),

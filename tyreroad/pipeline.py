@@ -1,0 +1,237 @@
+"""One function per workflow stage: read inputs, call the physics, write outputs.
+
+The Snakemake scripts in ``workflow/scripts/`` are thin adapters around these functions, so every
+stage can also be run (and tested) from Python without Snakemake. Each function receives the
+config *sections* it depends on (never the whole config), which is also what it records as the
+provenance of the file it writes.
+
+Outputs are written atomically (see :mod:`tyreroad.io`): if a stage fails, no result file is left.
+"""
+
+from __future__ import annotations
+
+import logging
+from pathlib import Path
+from typing import Any, Mapping, Sequence
+
+from . import io
+
+logger = logging.getLogger(__name__)
+
+__all__ = [
+    "resolved_material_config",
+    "material_variants",
+    "spring_material_inputs",
+    "run_prepare_surface",
+    "run_element_springs",
+    "run_springs_figure",
+    "run_greens",
+    "run_greens_figures",
+    "run_contact",
+    "run_study",
+    "run_study_figures",
+    "run_report",
+]
+
+
+def resolved_material_config(material_name: str, materials: Mapping[str, Any]) -> dict[str, Any]:
+    """The preset ``materials.<material_name>`` with its ``base:`` chain and scalings resolved.
+
+    Raises
+    ------
+    KeyError, ValueError
+        Naming ``materials.<name>`` when the preset is unknown or invalid.
+    """
+    from .material import material_from_config
+
+    return dict(material_from_config(material_name, materials).config)
+
+
+def _material(material_name: str, material_cfg: Mapping[str, Any]):
+    """Build a :class:`tyreroad.material.Material` from one resolved preset."""
+    from .material import material_from_config
+
+    return material_from_config(material_name, {material_name: dict(material_cfg)})
+
+
+def material_variants(
+    reference: str, study_materials: Sequence[str], materials: Mapping[str, Any]
+) -> dict[str, list[list[Any]]]:
+    """Group the study's materials into the loss-factor and density variants of ``reference``.
+
+    A material is a loss (density) variant when its preset has ``base: <reference>`` and only a
+    ``loss_scale`` (``density_scale``). The reference itself is the scale-1 member of both groups.
+
+    Returns
+    -------
+    dict
+        ``{"loss": [[scale, name], ...], "density": [[scale, name], ...]}`` sorted by scale.
+    """
+    groups: dict[str, list[list[Any]]] = {"loss": [[1.0, reference]], "density": [[1.0, reference]]}
+    for name in study_materials:
+        preset = materials.get(name, {})
+        if name == reference or preset.get("base") != reference:
+            continue
+        extra = set(preset) - {"base", "loss_scale", "density_scale"}
+        if extra:
+            continue
+        if "loss_scale" in preset and "density_scale" not in preset:
+            groups["loss"].append([float(preset["loss_scale"]), name])
+        elif "density_scale" in preset and "loss_scale" not in preset:
+            groups["density"].append([float(preset["density_scale"]), name])
+    return {key: sorted(members) for key, members in groups.items()}
+
+
+def spring_material_inputs(material_name: str, materials: Mapping[str, Any]) -> dict[str, float]:
+    """The material properties the element springs depend on (and nothing else).
+
+    The springs depend on the quasi-static modulus, Poisson's ratio and the layer thickness only;
+    the workflow passes exactly these as the rule's params, so that changing, e.g., a variant's
+    density does not re-run its springs.
+
+    Returns
+    -------
+    dict
+        ``quasi_static_modulus`` [Pa], ``poisson`` [-], ``thickness`` [m].
+    """
+    from .material import material_from_config
+
+    mat = material_from_config(material_name, materials)
+    return {
+        "quasi_static_modulus": float(mat.quasi_static_modulus),
+        "poisson": float(mat.poisson),
+        "thickness": float(mat.thickness),
+    }
+
+
+def run_prepare_surface(name: str, spec: Mapping[str, Any], out_nc: str | Path, out_png: str | Path) -> None:
+    """Stage ``prepare_surface``: generate or read the road patch, write its netCDF and figure 4."""
+    from .plots.surface import plot_patch
+    from .surface import prepare_surface
+
+    ds = prepare_surface(name, spec)
+    io.write_dataset(ds, out_nc, {"surfaces": {name: dict(spec)}}, stage="prepare_surface", surface=name)
+    with io.atomic_path(out_png) as tmp:
+        plot_patch(ds, tmp)
+
+
+def run_element_springs(
+    surface_nc: str | Path,
+    surface_name: str,
+    material_name: str,
+    material_inputs: Mapping[str, float],
+    springs_cfg: Mapping[str, Any],
+    out_nc: str | Path,
+) -> None:
+    """Stage ``element_springs``: one nonlinear contact spring per element of the patch."""
+    from .springs import SpringModel, element_springs, resolve_spring_modulus
+
+    model = SpringModel.from_config(springs_cfg)
+    surface = io.read_dataset(surface_nc)
+    modulus = resolve_spring_modulus(model, material_inputs["quasi_static_modulus"])
+    ds = element_springs(
+        surface, model, modulus=modulus, poisson=material_inputs["poisson"], thickness=material_inputs["thickness"]
+    )
+    provenance = {"springs": dict(springs_cfg), "material": {material_name: dict(material_inputs)}}
+    io.write_dataset(ds, out_nc, provenance, stage="element_springs", surface=surface_name, material=material_name)
+
+
+def run_springs_figure(springs_nc: str | Path, out_png: str | Path) -> None:
+    """Figure of k(zeta) for a few elements and the patch sum."""
+    from .plots.springs import plot_springs
+
+    with io.atomic_path(out_png) as tmp:
+        plot_springs(io.read_dataset(springs_nc), tmp)
+
+
+def run_greens(
+    material_name: str,
+    material_cfg: Mapping[str, Any],
+    greens_cfg: Mapping[str, Any],
+    n_elements: Sequence[int],
+    element_size: float,
+    out_nc: str | Path,
+) -> None:
+    """Stage ``greens``: the layer's element Green's functions for one material."""
+    from .greens import GreensSettings, greens_dataset
+
+    material = _material(material_name, material_cfg)
+    settings = GreensSettings.from_config(greens_cfg)
+    ds = greens_dataset(
+        material,
+        n_elements=tuple(int(n) for n in n_elements),
+        element_size=float(element_size),
+        sample_rate=settings.sample_rate,
+        n_lags=settings.n_lags,
+        n_fft=settings.n_fft,
+    )
+    provenance = {
+        "material": {material_name: dict(material.config)},
+        "greens": dict(greens_cfg),
+        "n_elements": list(n_elements),
+        "element_size": element_size,
+    }
+    io.write_dataset(ds, out_nc, provenance, stage="greens", material=material_name)
+
+
+def run_greens_figures(greens_ncs: Sequence[str | Path], out_material_png: str | Path, out_frf_png: str | Path) -> None:
+    """Figures 2 (material curves) and 3 (FRF at the excitation element) for every material."""
+    from .plots.greens import plot_frf, plot_materials
+
+    datasets = [io.read_dataset(p) for p in greens_ncs]
+    with io.atomic_path(out_material_png) as tmp:
+        plot_materials(datasets, tmp)
+    with io.atomic_path(out_frf_png) as tmp:
+        plot_frf(datasets, tmp)
+
+
+def run_contact(
+    surface_nc: str | Path,
+    springs_nc: str | Path,
+    greens_nc: str | Path,
+    surface_name: str,
+    material_name: str,
+    material_cfg: Mapping[str, Any],
+    mode: str,
+    acceleration: float,
+    solver_cfg: Mapping[str, Any],
+    out_nc: str | Path,
+    threads: int = 1,
+) -> None:
+    """Stage ``contact``: one dynamic or quasi-static indentation run.
+
+    Raises
+    ------
+    tyreroad.contact.ContactConvergenceError
+        If a time step does not converge; no file is written then.
+    """
+    from .contact import SolverSettings, contact_dataset, solve_run
+
+    settings = SolverSettings.from_config(solver_cfg)
+    material = _material(material_name, material_cfg)
+    result = solve_run(
+        surface=io.read_dataset(surface_nc),
+        springs=io.read_dataset(springs_nc),
+        greens=io.read_dataset(greens_nc),
+        material=material,
+        mode=mode,
+        acceleration=float(acceleration),
+        settings=settings,
+        threads=threads,
+    )
+    ds = contact_dataset(result, mode, float(acceleration), surface_name, material_name)
+    provenance = {"solver": dict(solver_cfg), "material": {material_name: dict(material.config)}}
+    io.write_dataset(
+        ds, out_nc, provenance, stage="contact", surface=surface_name, material=material_name, mode=mode
+    )
+
+
+def run_study(
+    contact_ncs: Sequence[str | Path], study_cfg: Mapping[str, Any], d_max: float, out_nc: str | Path
+) -> None:
+    """Stage ``study``: all runs on one indentation grid, with stiffness and K_sat per case."""
+    from .study import StudySettings, aggregate
+
+    settings = StudySettings.from_config(study_cfg, d_max=d_max)
+    ds = aggregate([io.read_dataset(p) for p in contact_ncs], settings)
+    io.write_dataset(ds, out_nc, {"study": dict(study_cfg), "d_max": d_max}, stage="study")

@@ -1,0 +1,13 @@
+rule prepare_surface:
+    output:
+        nc="results/surface/{surface}.nc",
+        png="results/figures/fig4_surface_{surface}.png",
+    log:
+        "results/logs/prepare_surface/{surface}.log",
+    benchmark:
+        "results/benchmarks/prepare_surface/{surface}.tsv"
+    params:
+        spec=lambda w: config["surfaces"][w.surface],
+    threads: 1
+    script:
+        "../scripts/prepare_surface.py"

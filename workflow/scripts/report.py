@@ -1,0 +1,12 @@
+"""Snakemake adapter for rule report."""
+from tyreroad import log, pipeline
+
+log.configure(snakemake.log[0])
+pipeline.run_report(
+    study_nc=snakemake.input.study,
+    surface_nc=snakemake.input.surface,
+    greens_ncs=snakemake.input.greens,
+    study_cfg=snakemake.params.study,
+    variants=snakemake.params.variants,
+    out_md=snakemake.output.md,
+)
