@@ -100,3 +100,11 @@ def test_changing_one_variant_replans_only_that_variant(workdir):
     assert "results/greens/tread-rho2.nc" in out
     assert "results/greens/tread.nc" not in out
     assert "results/contact/iso10844/tread/dynamic_500.nc" not in out
+
+
+def test_lint_reports_only_the_conda_note():
+    proc = subprocess.run(
+        [sys.executable, "-m", "snakemake", "--lint"], cwd=ROOT, capture_output=True, text=True
+    )
+    lints = {line.strip() for line in (proc.stdout + proc.stderr).splitlines() if line.strip().startswith("* ")}
+    assert lints == {"* Specify a conda environment or container for each rule.:"}, lints
