@@ -235,3 +235,40 @@ def run_study(
     settings = StudySettings.from_config(study_cfg, d_max=d_max)
     ds = aggregate([io.read_dataset(p) for p in contact_ncs], settings)
     io.write_dataset(ds, out_nc, {"study": dict(study_cfg), "d_max": d_max}, stage="study")
+
+
+def run_study_figures(
+    study_nc: str | Path, study_cfg: Mapping[str, Any], variants: Mapping[str, Any], outputs: Sequence[str | Path]
+) -> None:
+    """Figures 5-8: F(d) and K(d) of the reference material, and K(d) of the loss and density variants."""
+    from .plots.study import plot_study_figures
+    from .study import open_study
+
+    plot_study_figures(
+        open_study(study_nc), variants, [str(p) for p in outputs], reference_material=study_cfg["reference_material"]
+    )
+
+
+def run_report(
+    study_nc: str | Path,
+    surface_nc: str | Path,
+    greens_ncs: Sequence[str | Path],
+    study_cfg: Mapping[str, Any],
+    variants: Mapping[str, Any],
+    out_md: str | Path,
+) -> None:
+    """``results/report.md``: the seed's claims checked against the measured numbers."""
+    from .report import build_report, write_report
+    from .study import StudySettings, open_study
+
+    study = open_study(study_nc)
+    settings = StudySettings.from_config(study_cfg, d_max=float(study.attrs["d_max_m"]))
+    text = build_report(
+        study,
+        io.read_dataset(surface_nc),
+        [io.read_dataset(p) for p in greens_ncs],
+        settings,
+        variants,
+        config={"study": dict(study_cfg), "variants": dict(variants)},
+    )
+    write_report(text, out_md)

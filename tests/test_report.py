@@ -1,0 +1,359 @@
+"""The claims report (tyreroad.report) on synthetic studies built to pass and to fail each claim.
+
+Every synthetic run has the saturating stiffness K(d) = S (1 - exp(-d/s)) (force
+F = S (d - s (1 - exp(-d/s)))), optionally a decaying ripple, a prescribed contact fraction and a
+backing force proportional to the surface force, so every claim's measured number is known.
+Material names deliberately say nothing about the variant: the variant groups come from the
+``variants`` mapping only.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from typing import Callable
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from tyreroad import io
+from tyreroad.report import (
+    THRESHOLDS,
+    build_report,
+    count_growth_peak,
+    evaluate_claims,
+    quasistatic_resampling_check,
+    ripple,
+    write_report,
+)
+from tyreroad.study import StudySettings, aggregate, expected_cases
+
+D_MAX = 2.5e-4
+DT = 1.0 / 51200.0
+N_EX = N_EY = 20
+MATERIALS = ["ref", "mat-b", "mat-c", "mat-d", "mat-e"]
+VARIANTS = {"loss": [[0.5, "mat-b"], [1.0, "ref"], [1.5, "mat-c"]], "density": [[0.5, "mat-d"], [1.0, "ref"], [2.0, "mat-e"]]}
+S_REF = {0.0: 2.0e6, 50.0: 2.3e6, 250.0: 2.5e6, 500.0: 2.75e6}
+DS = 4e-5
+F_MAX = 0.5 / (1 - math.exp(-3.0))  # contact fraction 0.5 at 0.15 mm
+
+
+def fraction_fast(d):
+    return F_MAX * (1 - np.exp(-d / 5e-5))
+
+
+@dataclass(frozen=True)
+class RunSpec:
+    S: float
+    s: float = DS
+    ripple: float = 0.0  # relative K amplitude of a decaying ripple (wavelength 25 um, decay 40 um)
+    fraction: Callable = fraction_fast
+    backing: float = 1.005
+    force: Callable | None = None  # overrides the saturating force
+
+    def force_fn(self, d):
+        if self.force is not None:
+            return self.force(d)
+        lam, dr = 25e-6, 4e-5
+        amp = self.ripple * self.S * lam / (2 * np.pi)
+        return self.S * (d - self.s * (1 - np.exp(-d / self.s))) + amp * np.sin(2 * np.pi * d / lam) * np.exp(-d / dr)
+
+
+SCALE = {"ref": 1.0, "mat-b": 1.025, "mat-c": 0.97, "mat-d": 0.995, "mat-e": 1.01}
+RIPPLE = {"ref": 0.01, "mat-b": 0.01, "mat-c": 0.01, "mat-d": 0.005, "mat-e": 0.05}
+
+
+def passing_specs() -> dict:
+    specs = {}
+    for m in MATERIALS:
+        for a, S in S_REF.items():
+            mode = "quasistatic" if a == 0 else "dynamic"
+            specs[(m, mode, a)] = RunSpec(S=S * SCALE[m], ripple=RIPPLE[m] if a else 0.0)
+    return specs
+
+
+def run_dataset(key, spec: RunSpec) -> xr.Dataset:
+    material, mode, accel = key
+    if mode == "quasistatic":
+        d = np.arange(round(D_MAX / 1e-6) + 1) * 1e-6
+        time = None
+    else:
+        time = np.arange(math.ceil(math.sqrt(2 * D_MAX / accel) / DT) + 1) * DT
+        d = 0.5 * accel * time**2
+    n_el = N_EX * N_EY
+    force = spec.force_fn(d)
+    coords = {
+        "step": ("step", np.arange(d.size), {"units": "1", "long_name": "step"}),
+        "indentation": ("step", d, {"units": "m", "long_name": "indentation"}),
+        "ex": ("ex", np.arange(N_EX), {"units": "1", "long_name": "element x index"}),
+        "ey": ("ey", np.arange(N_EY), {"units": "1", "long_name": "element y index"}),
+    }
+    if time is not None:
+        coords["time"] = ("step", time, {"units": "s", "long_name": "time"})
+    data = {
+        "force": ("step", force, {"units": "N", "long_name": "total force"}),
+        "backing_force": ("step", spec.backing * force, {"units": "N", "long_name": "backing force"}),
+        "contact_count": ("step", np.round(spec.fraction(d) * n_el), {"units": "1", "long_name": "contact count"}),
+        "element_force": (("step", "ex", "ey"), np.zeros((d.size, N_EX, N_EY)), {"units": "N", "long_name": "F_e"}),
+    }
+    attrs = {"mode": mode, "acceleration": float(accel), "material": material, "surface": "synth"}
+    return xr.Dataset(data, coords=coords, attrs=attrs)
+
+
+SETTINGS = StudySettings.from_config(
+    {"surface": "synth", "reference_material": "ref", "materials": MATERIALS, "accelerations": [50, 250, 500]},
+    d_max=D_MAX,
+)
+
+
+def make_study(specs: dict) -> xr.Dataset:
+    return aggregate([run_dataset(k, specs[k]) for k in expected_cases(SETTINGS)], SETTINGS)
+
+
+@pytest.fixture(scope="module")
+def passing_study():
+    return make_study(passing_specs())
+
+
+def surface_dataset() -> xr.Dataset:
+    c = lambda u, n: {"units": u, "long_name": n}  # noqa: E731
+    return xr.Dataset(
+        {
+            "z1": (("ex", "ey"), np.zeros((N_EX, N_EY)), c("m", "element peak height")),
+            "mpd": ((), 0.52e-3, c("m", "mean profile depth")),
+            "rms_height": ((), 0.31e-3, c("m", "rms height")),
+            "skewness": ((), -0.83, c("1", "skewness")),
+            "peak_fraction_within": ("depth", [0.18, 0.33, 0.51], c("1", "fraction of element peaks near the top")),
+        },
+        coords={"depth": ("depth", [0.05e-3, 0.10e-3, 0.15e-3], c("m", "depth below the top"))},
+        attrs={"surface": "synth", "element_size": 1e-3},
+    )
+
+
+def greens_dataset(material: str, density: float) -> xr.Dataset:
+    f = np.linspace(0, 25600, 2049)
+    c = lambda u, n: {"units": u, "long_name": n}  # noqa: E731
+    cfg = {"material": {material: {"density": density, "poisson_ratio": 0.49, "thickness": 0.01}}}
+    return xr.Dataset(
+        {
+            "storage_modulus": ("frequency", 22e6 + 2e3 * f, c("Pa", "E'")),
+            "loss_factor": ("frequency", 0.2 + 0 * f, c("1", "eta")),
+            "kept_fraction": ((), 0.9987, c("1", "kept")),
+            "precursor_energy_fraction": ((), 3.2e-7, c("1", "precursor")),
+        },
+        coords={"frequency": ("frequency", f, c("Hz", "frequency"))},
+        attrs={"material": material, "config": io.config_yaml(cfg)},
+    )
+
+
+def by_number(results):
+    return {r.number: r for r in results}
+
+
+# ----------------------------------------------------------------------------------------------
+# measurement helpers
+# ----------------------------------------------------------------------------------------------
+def _ripple_reference(d, k, d_max, n_win, k_ref):
+    """Plain-numpy ripple: a quadratic least-squares fit over each point's window (shifted inwards at the ends)."""
+    use = d <= d_max + n_win * (d[1] - d[0]) * (1 + 1e-9) - (d[1] - d[0]) * 0.5
+    du, ku = d[use], k[use]
+    half = n_win // 2
+    smooth = np.empty_like(ku)
+    for i in range(ku.size):
+        lo = min(max(i - half, 0), ku.size - n_win)
+        coef = np.polyfit(du[lo:lo + n_win] - du[i], ku[lo:lo + n_win], 2)
+        smooth[i] = coef[-1]
+    sel = (du > 0) & (du <= d_max * (1 + 1e-9))
+    return np.sqrt(np.mean((ku - smooth)[sel] ** 2)) / k_ref
+
+
+def test_ripple_against_plain_fit_and_scaling():
+    d = np.arange(251) * 1e-6
+    k = 2e6 * (1 - np.exp(-d / DS))
+    wave = 0.04e6 * np.sin(2 * np.pi * d / 10e-6)
+    r = ripple(d, k + wave, 1e-4, 3e-5, 2e6)
+    assert r == pytest.approx(_ripple_reference(d, k + wave, 1e-4, 31, 2e6), rel=1e-9)
+    # a 10 um ripple is far shorter than the 30 um window: the residual is most of its RMS (0.02/sqrt 2)
+    assert 0.8 * 0.02 / math.sqrt(2) < r < 1.05 * 0.02 / math.sqrt(2)
+    assert ripple(d, k + 2 * wave, 1e-4, 3e-5, 2e6) == pytest.approx(2 * r, rel=0.03)
+    assert ripple(d, k, 1e-4, 3e-5, 2e6) < 0.03 * r  # the smooth rise itself is hardly a ripple
+    assert ripple(d, 3e6 + 1e10 * d - 1e13 * d**2, 1e-4, 3e-5, 2e6) < 1e-12
+    with pytest.raises(ValueError, match="need >= 5"):
+        ripple(d, k, 1e-4, 2e-6, 2e6)
+
+
+def test_count_growth_peak():
+    d = np.arange(251) * 1e-6
+    assert count_growth_peak(d, 1 - np.exp(-d / 5e-5), 2e-5) == 0.0
+    logistic = 1 / (1 + np.exp(-(d - 1.2e-4) / 2e-5))
+    assert count_growth_peak(d, logistic, 2e-5) == pytest.approx(1.2e-4, abs=1.5e-6)
+
+
+def test_quasistatic_resampling_check():
+    grid = np.arange(251) * 1e-6
+    dq = grid.copy()
+    da = 0.5 * 500.0 * (np.arange(53) * DT) ** 2
+    smooth = 2e6 * (dq - DS * (1 - np.exp(-dq / DS)))
+    dk, pw = quasistatic_resampling_check(dq, smooth, da, grid, (1.8e-4, 2.5e-4), 5e-5)
+    assert abs(dk) < 5e-4 and pw < 3e-3
+    # a 6 um oscillation of the QS force is resolved by its 1 um grid but aliased by the dynamic sampling
+    wiggly = smooth + 0.3 * 2e6 * 6e-6 / (2 * np.pi) * np.sin(2 * np.pi * dq / 6e-6)
+    dk, pw = quasistatic_resampling_check(dq, wiggly, da, grid, (1.8e-4, 2.5e-4), 5e-5)
+    assert pw > 0.15
+
+
+# ----------------------------------------------------------------------------------------------
+# the claims on a study built to pass them all
+# ----------------------------------------------------------------------------------------------
+def test_all_claims_pass_with_the_expected_numbers(passing_study):
+    res = by_number(evaluate_claims(passing_study, SETTINGS, VARIANTS))
+    assert sorted(res) == list(range(1, 11))
+    assert {n: r.passed for n, r in res.items()} == {n: True for n in range(1, 11)}
+    sat = 1 - math.exp(-2.15e-4 / DS)
+    v = res[2].values["saturated_stiffness"]
+    assert [v["QS"], v["50"], v["250"], v["500"]] == pytest.approx([S * sat for S in S_REF.values()], rel=2e-3)
+    assert min(res[1].values["min_ratio"].values()) == pytest.approx(2.3 / 2.0, rel=0.01)
+    assert max(res[3].values["rms"].values()) < 1e-3
+    assert sorted(res[4].values["d_peak"]) == ["250", "50", "500", "QS"]
+    assert max(res[4].values["d_peak"].values()) <= 2e-6  # fraction ~ 1 - exp(-d/0.05 mm): fastest at d = 0
+    assert res[5].values["fraction"] == pytest.approx(0.5, abs=3e-3)
+    assert res[5].values["change"] < 0.02
+    assert res[6].values["delta"] == pytest.approx({0.5: 0.025, 1.5: -0.03}, abs=2e-3)
+    assert res[7].values["delta"] == pytest.approx({0.5: -0.005, 2.0: 0.01}, abs=2e-3)
+    assert 2.5 < res[7].values["ripple_ratio"] < 7.0  # K ripple amplitudes 0.05 vs 0.01
+    assert res[8].values["saturated_stiffness"] == pytest.approx(2.75e6 * sat, rel=2e-3)
+    assert max(abs(x) for x in res[9].values["ksat_change"].values()) < 1e-3
+    assert max(res[10].values["relative_difference"].values()) == pytest.approx(0.005, rel=1e-9)
+
+
+# ----------------------------------------------------------------------------------------------
+# each claim fails when the data contradict it
+# ----------------------------------------------------------------------------------------------
+def _set(specs, key, **kw):
+    specs[key] = replace(specs[key], **kw)
+
+
+def fail_1(sp):  # QS rises faster than the 50 m/s^2 run: K_50 < K_QS at d = 0.06 mm, order of K_sat kept
+    _set(sp, ("ref", "quasistatic", 0.0), s=1e-5)
+    _set(sp, ("ref", "dynamic", 50.0), s=1e-4)
+
+
+def fail_2(sp):
+    _set(sp, ("ref", "dynamic", 250.0), S=2.2e6)
+
+
+def fail_3(sp):  # F ~ d^2 instead of saturating
+    _set(sp, ("ref", "dynamic", 250.0), force=lambda d: 2.5e6 * d**2 / (2 * 1.25e-4))
+
+
+def fail_4(sp):  # contact count grows fastest at 0.15 mm
+    _set(sp, ("ref", "dynamic", 500.0), fraction=lambda d: 0.9 / (1 + np.exp(-(d - 1.5e-4) / 2e-5)))
+
+
+def fail_5_fraction(sp):
+    _set(sp, ("ref", "dynamic", 500.0), fraction=lambda d: 0.8 / 0.5 * fraction_fast(d))
+
+
+def fail_5_saturation(sp):
+    _set(sp, ("ref", "dynamic", 500.0), s=2e-4)
+
+
+def fail_6_large(sp):
+    _set(sp, ("mat-c", "dynamic", 500.0), S=0.8 * 2.75e6)
+
+
+def fail_6_absent(sp):
+    for m in ("mat-b", "mat-c"):
+        _set(sp, (m, "dynamic", 500.0), S=2.75e6)
+
+
+def fail_7_large(sp):
+    _set(sp, ("mat-e", "dynamic", 500.0), S=1.05 * 2.75e6)
+
+
+def fail_7_no_ripple(sp):
+    _set(sp, ("mat-e", "dynamic", 500.0), ripple=0.01)
+
+
+def fail_8(sp):  # every material 25 % softer
+    for key in sp:
+        _set(sp, key, S=0.75 * sp[key].S)
+
+
+def fail_9(sp):
+    key = ("ref", "quasistatic", 0.0)
+    base = sp[key]
+    _set(sp, key, force=lambda d: RunSpec(S=base.S).force_fn(d) + 0.3 * base.S * 6e-6 / (2 * np.pi) * np.sin(2 * np.pi * d / 6e-6))
+
+
+def fail_10(sp):
+    _set(sp, ("mat-d", "dynamic", 50.0), backing=1.05)
+
+
+@pytest.mark.parametrize(
+    "modify, failing, still_passing",
+    [
+        (fail_1, 1, [2, 6, 7, 10]),
+        (fail_2, 2, [1, 6, 7, 8, 10]),
+        (fail_3, 3, [6, 7, 8, 10]),
+        (fail_4, 4, [1, 2, 3, 6, 7, 8]),
+        (fail_5_fraction, 5, [1, 2, 3, 4, 6, 7, 8]),
+        (fail_5_saturation, 5, [4, 10]),
+        (fail_6_large, 6, [1, 2, 7, 8]),
+        (fail_6_absent, 6, [1, 2, 7, 8]),
+        (fail_7_large, 7, [1, 2, 6, 8]),
+        (fail_7_no_ripple, 7, [1, 2, 6, 8]),
+        (fail_8, 8, [1, 2, 3, 4, 5, 6, 7, 10]),
+        (fail_9, 9, [2, 6, 7, 8, 10]),
+        (fail_10, 10, [1, 2, 3, 4, 5, 6, 7, 8, 9]),
+    ],
+)
+def test_each_claim_fails_on_contradicting_data(modify, failing, still_passing):
+    specs = passing_specs()
+    modify(specs)
+    res = by_number(evaluate_claims(make_study(specs), SETTINGS, VARIANTS))
+    assert res[failing].passed is False, res[failing].measured
+    for n in still_passing:
+        assert res[n].passed is True, (n, res[n].measured)
+
+
+def test_claims_6_7_not_evaluated_without_variants(passing_study):
+    only_ref = {"loss": [[1.0, "ref"]], "density": [[1.0, "ref"]]}
+    res = by_number(evaluate_claims(passing_study, SETTINGS, only_ref))
+    assert res[6].passed is None and res[7].passed is None
+    assert all(res[n].passed for n in (1, 2, 3, 4, 5, 8, 9, 10))
+
+
+# ----------------------------------------------------------------------------------------------
+# the markdown
+# ----------------------------------------------------------------------------------------------
+def test_report_markdown(tmp_path, passing_study):
+    greens = [greens_dataset(m, 1100.0 * {"mat-d": 0.5, "mat-e": 2.0}.get(m, 1.0)) for m in MATERIALS]
+    text = build_report(passing_study, surface_dataset(), greens, SETTINGS, VARIANTS)
+    rows = [line for line in text.splitlines() if line.startswith("| ") and "**" in line]
+    assert [int(r.split("|")[1]) for r in rows] == list(range(1, 11))
+    assert all(r.rstrip().endswith("**PASS** |") for r in rows)
+    assert all(len(r.split(" | ")) == 5 for r in rows)  # no stray pipes inside cells
+    assert "10 of 10 evaluated pass" in text
+    assert "K_sat = 2.737 MN/m" in text  # claim 8: 2.75 (1 - exp(-5.375)) MN/m
+    assert "η×0.5: +2.50 %" in text and "ρ×2: +1.00 %" in text
+    assert f"within ±{100 * THRESHOLDS['c8_rel_tol']:g} % of 2.75 MN/m" in text
+    assert "| MPD (whole field, ISO 13473-1) | 0.520 mm |" in text
+    assert "| skewness | -0.830 |" in text
+    assert "| element peaks within 0.15 mm of the top | 51.0 % |" in text
+    mat_e = next(line for line in text.splitlines() if line.startswith("| mat-e |"))
+    assert mat_e.startswith("| mat-e | — | 2 | 2200 | 0.49 | 10 | 22.2 MPa / 0.200 | 24.0 MPa / 0.200 |")
+    assert "| ref/dynamic/500 | 2.7371 | 2.7507 | 0.501 | 577.71 |" in text
+    assert io.config_hash({"x": 1}) not in text and "report config SHA-256: `" in text
+    p = write_report(text, tmp_path / "out" / "report.md")
+    assert p.read_text(encoding="utf-8") == text
+
+
+def test_report_marks_failures(passing_study):
+    specs = passing_specs()
+    fail_8(specs)
+    text = build_report(make_study(specs), None, None, SETTINGS, VARIANTS)
+    row8 = next(line for line in text.splitlines() if line.startswith("| 8 |"))
+    assert row8.rstrip().endswith("**FAIL** |") and "(-25." in row8
+    assert "## Road surface" not in text

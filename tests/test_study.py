@@ -1,0 +1,324 @@
+"""Study aggregation (tyreroad.study) and figures 5-8 (tyreroad.plots.study) on synthetic contact runs.
+
+The synthetic runs follow the Contact dataset contract (INTERFACES.md) with a force whose stiffness
+is known in closed form: F(d) = S (d - s (1 - exp(-d/s))), so K(d) = S (1 - exp(-d/s)).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from tyreroad import io
+from tyreroad.study import (
+    StudySettings,
+    aggregate,
+    case_label,
+    contact_stiffness,
+    expected_cases,
+    open_study,
+    saturated_stiffness,
+    variant_members,
+)
+
+D_MAX = 2.5e-4
+DT = 1.0 / 51200.0
+N_EX, N_EY = 4, 5
+
+
+def force_saturating(S, s):
+    return lambda d: S * (d - s * (1.0 - np.exp(-d / s)))
+
+
+def stiffness_saturating(S, s):
+    return lambda d: S * (1.0 - np.exp(-d / s))
+
+
+def synthetic_run(material, mode, accel, force_fn, fraction_fn=None, backing_scale=1.0, surface="synth",
+                  d_max=D_MAX, qs_step=1e-6, overshoot=True):
+    """A contact dataset (INTERFACES 'Contact dataset') with a prescribed F(d) and contact fraction."""
+    if mode == "quasistatic":
+        d = np.arange(round(d_max / qs_step) + 1) * qs_step
+        time = None
+    else:
+        n = math.ceil(math.sqrt(2 * d_max / accel) / DT) if overshoot else math.floor(math.sqrt(2 * d_max / accel) / DT)
+        time = np.arange(n + 1) * DT
+        d = 0.5 * accel * time**2
+    n_el = N_EX * N_EY
+    if fraction_fn is None:
+        fraction_fn = lambda x: 1.0 - np.exp(-x / 5e-5)  # noqa: E731
+    force = force_fn(d)
+    count = np.round(fraction_fn(d) * n_el)
+    coords = {
+        "step": ("step", np.arange(d.size), {"units": "1", "long_name": "step"}),
+        "indentation": ("step", d, {"units": "m", "long_name": "indentation"}),
+        "ex": ("ex", np.arange(N_EX), {"units": "1", "long_name": "element x index"}),
+        "ey": ("ey", np.arange(N_EY), {"units": "1", "long_name": "element y index"}),
+    }
+    if time is not None:
+        coords["time"] = ("step", time, {"units": "s", "long_name": "time"})
+    per_el = np.broadcast_to((force / n_el)[:, None, None], (d.size, N_EX, N_EY)).copy()
+    data = {
+        "force": ("step", force, {"units": "N", "long_name": "total force"}),
+        "backing_force": ("step", backing_scale * force, {"units": "N", "long_name": "backing force"}),
+        "contact_count": ("step", count, {"units": "1", "long_name": "contact count"}),
+        "element_force": (("step", "ex", "ey"), per_el, {"units": "N", "long_name": "element force"}),
+        "compression": (("step", "ex", "ey"), np.zeros_like(per_el), {"units": "m", "long_name": "zeta"}),
+        "displacement": (("step", "ex", "ey"), np.zeros_like(per_el), {"units": "m", "long_name": "w"}),
+        "newton_iterations": ("step", np.full(d.size, 3), {"units": "1", "long_name": "iterations"}),
+        "residual": ("step", np.full(d.size, 1e-14), {"units": "m", "long_name": "residual"}),
+    }
+    attrs = {"mode": mode, "acceleration": float(accel), "material": material, "surface": surface}
+    return xr.Dataset(data, coords=coords, attrs=attrs)
+
+
+def settings(materials=("ref", "other"), accelerations=(50.0, 500.0), **kw):
+    study = {"surface": "synth", "reference_material": materials[0], "materials": list(materials),
+             "accelerations": list(accelerations), **kw}
+    return StudySettings.from_config(study, d_max=D_MAX)
+
+
+S_OF = {("ref", "quasistatic", 0.0): 2.0e6, ("ref", "dynamic", 50.0): 2.3e6, ("ref", "dynamic", 500.0): 2.75e6,
+        ("other", "quasistatic", 0.0): 1.0e6, ("other", "dynamic", 50.0): 1.2e6, ("other", "dynamic", 500.0): 1.4e6}
+DS = 4e-5
+
+
+def study_runs(st, **kw):
+    return [synthetic_run(m, mode, a, force_saturating(S_OF[(m, mode, a)], DS), **kw) for m, mode, a in expected_cases(st)]
+
+
+# ----------------------------------------------------------------------------------------------
+# settings
+# ----------------------------------------------------------------------------------------------
+def test_settings_from_config_defaults_and_grid():
+    st = settings(accelerations=(500, 50, 250))
+    assert st.accelerations == (50.0, 250.0, 500.0)
+    assert st.indentation_step == 1e-6 and st.saturation_range == (1.8e-4, 2.5e-4)
+    assert st.grid.size == 251 and st.grid[-1] == pytest.approx(D_MAX, rel=1e-12)
+    assert expected_cases(st)[:2] == [("ref", "quasistatic", 0.0), ("ref", "dynamic", 50.0)]
+    assert len(expected_cases(st)) == 2 * 4
+
+
+@pytest.mark.parametrize(
+    "change, key",
+    [
+        ({"reference_material": "nope"}, "study.reference_material"),
+        ({"indentation_step": 3e-6}, "study.indentation_step"),
+        ({"indentation_step": -1e-6}, "study.indentation_step"),
+        ({"saturation_range": [2e-4, 3e-4]}, "study.saturation_range"),
+        ({"saturation_range": [2e-4, 1e-4]}, "study.saturation_range"),
+        ({"accelerations": [50, -1]}, "study.accelerations"),
+        ({"accelerations": [50, 50.0]}, "study.accelerations"),
+        ({"materials": ["ref", "ref"]}, "study.materials"),
+        ({"typo": 1}, "study.typo"),
+    ],
+)
+def test_settings_errors_name_the_key(change, key):
+    study = {"surface": "synth", "reference_material": "ref", "materials": ["ref"], "accelerations": [50], **change}
+    with pytest.raises(ValueError, match=key.replace(".", r"\.")):
+        StudySettings.from_config(study, d_max=D_MAX)
+
+
+def test_settings_missing_key():
+    with pytest.raises(ValueError, match=r"study\.accelerations is missing"):
+        StudySettings.from_config({"surface": "s", "reference_material": "r", "materials": ["r"]}, d_max=D_MAX)
+
+
+# ----------------------------------------------------------------------------------------------
+# stiffness formula
+# ----------------------------------------------------------------------------------------------
+def test_stiffness_exact_for_quadratics_on_nonuniform_grid():
+    rng = np.random.default_rng(1)
+    d = np.cumsum(rng.uniform(0.2e-6, 3e-6, 40))
+    f = 3.0e9 * d**2 - 2.0e5 * d + 7.0
+    k = contact_stiffness(d, f)
+    np.testing.assert_allclose(k, 6.0e9 * d - 2.0e5, rtol=1e-8, atol=1e-3)
+    # independent implementation of the same second-order formulas
+    np.testing.assert_allclose(k, np.gradient(f, d, edge_order=2), rtol=1e-10)
+
+
+def test_stiffness_second_order_on_constant_acceleration_grid():
+    """F = K0 d^2.5 sampled at d = a t^2/2: error falls 4x when dt halves (second order)."""
+    a, k0 = 500.0, 1.0e10
+
+    def max_error(dt):
+        t = np.arange(math.ceil(math.sqrt(2 * D_MAX / a) / dt) + 1) * dt
+        d = 0.5 * a * t**2
+        k = contact_stiffness(d, k0 * d**2.5)
+        exact = 2.5 * k0 * d**1.5
+        return np.max(np.abs(k - exact)) / np.max(exact)
+
+    e1, e2, e3 = max_error(DT), max_error(DT / 2), max_error(DT / 4)
+    assert e1 < 1e-3  # the study's own sampling at 500 m/s^2
+    assert 3.3 < e1 / e2 < 4.7 and 3.3 < e2 / e3 < 4.7
+
+
+def test_stiffness_rejects_bad_input():
+    with pytest.raises(ValueError, match="strictly increasing"):
+        contact_stiffness([0.0, 1e-6, 1e-6, 2e-6], [0, 1, 2, 3])
+    with pytest.raises(ValueError, match="at least 3"):
+        contact_stiffness([0.0, 1e-6], [0.0, 1.0])
+    with pytest.raises(ValueError, match="finite"):
+        contact_stiffness([0.0, 1e-6, 2e-6], [0.0, np.nan, 1.0])
+
+
+def test_saturated_stiffness_is_median_over_range():
+    d = np.arange(251) * 1e-6
+    k = np.where(d > 2.2e-4, 100.0, 1.0) + d  # 30 large values out of 71 in range: median stays low
+    assert saturated_stiffness(d, k, (1.8e-4, 2.5e-4)) == pytest.approx(1.0 + 2.15e-4, rel=1e-12)
+    with pytest.raises(ValueError, match="saturation range"):
+        saturated_stiffness(d, np.full_like(d, np.nan), (1.8e-4, 2.5e-4))
+
+
+# ----------------------------------------------------------------------------------------------
+# aggregation
+# ----------------------------------------------------------------------------------------------
+def test_aggregate_grid_stiffness_and_ksat():
+    st = settings()
+    runs = study_runs(st, backing_scale=1.01)
+    ds = aggregate(reversed(runs), st)  # order of the inputs does not matter
+    assert ds.sizes == {"case": 6, "indentation": 251, "sample": max(r.sizes["step"] for r in runs)}
+    assert list(ds["case"].values) == ["ref/quasistatic/0", "ref/dynamic/50", "ref/dynamic/500",
+                                       "other/quasistatic/0", "other/dynamic/50", "other/dynamic/500"]
+    assert list(ds["accel"].values) == [0.0, 50.0, 500.0, 0.0, 50.0, 500.0]
+    d = ds["indentation"].values
+    for i, (m, mode, a) in enumerate(expected_cases(st)):
+        S = S_OF[(m, mode, a)]
+        c = ds.isel(case=i)
+        assert c["material"].item() == m and c["mode"].item() == mode
+        np.testing.assert_allclose(c["force"].values, force_saturating(S, DS)(d), rtol=0, atol=2e-4 * S * D_MAX)
+        np.testing.assert_allclose(c["stiffness"].values, stiffness_saturating(S, DS)(d), rtol=0, atol=3e-3 * S)
+        assert float(c["saturated_stiffness"]) == pytest.approx(S * (1 - math.exp(-2.15e-4 / DS)), rel=1e-3)
+        np.testing.assert_allclose(c["backing_stiffness"].values, 1.01 * c["stiffness"].values, rtol=1e-12)
+        assert float(c["saturated_backing_stiffness"]) / float(c["saturated_stiffness"]) == pytest.approx(1.01, rel=1e-12)
+        n = int(c["native_samples"])
+        assert n == runs[i].sizes["step"]
+        np.testing.assert_array_equal(c["native_indentation"].values[:n], runs[i]["indentation"].values)
+        assert np.all(np.isnan(c["native_indentation"].values[n:]))
+    # QS native grid coincides with the common grid: the fraction is count / elements exactly
+    qs = ds.study.sel_case(material="ref", mode="quasistatic")
+    expect = np.round((1 - np.exp(-d / 5e-5)) * N_EX * N_EY) / (N_EX * N_EY)
+    np.testing.assert_allclose(qs["contact_fraction"].values, expect, atol=1e-12)
+    assert int(ds["n_elements"]) == N_EX * N_EY
+    for name in [*ds.data_vars, *ds.coords]:
+        assert "units" in ds[name].attrs and "long_name" in ds[name].attrs, name
+    assert "native (non-uniform) samples" in ds.attrs["stiffness_method"]
+
+
+def test_aggregate_run_ending_within_one_step_of_d_max_leaves_nan_not_extrapolation():
+    st = settings()
+    runs = study_runs(st)
+    runs[2] = synthetic_run("ref", "dynamic", 500.0, force_saturating(2.75e6, DS), overshoot=False)
+    d_last = float(runs[2]["indentation"][-1])
+    assert d_last < D_MAX
+    ds = aggregate(runs, st)
+    k = ds.study.sel_case(material="ref", mode="dynamic", accel=500)["stiffness"].values
+    grid = ds["indentation"].values
+    assert np.all(np.isnan(k[grid > d_last])) and np.all(np.isfinite(k[grid <= d_last]))
+    assert np.isfinite(ds["saturated_stiffness"].values).all()
+
+
+def test_aggregate_errors():
+    st = settings()
+    runs = study_runs(st)
+    with pytest.raises(ValueError, match=r"missing the contact run\(s\) other/dynamic/500"):
+        aggregate(runs[:-1], st)
+    with pytest.raises(ValueError, match="duplicate run for case 'ref/dynamic/50'"):
+        aggregate(runs + [runs[1]], st)
+    bad = runs[1].copy()
+    bad.attrs["surface"] = "elsewhere"
+    with pytest.raises(ValueError, match="differs from study.surface"):
+        aggregate([bad] + runs[2:], st)
+    bad = runs[1].copy()
+    bad.attrs["acceleration"] = 100.0
+    with pytest.raises(ValueError, match=r"acceleration 100 m/s\^2 is not in study.accelerations"):
+        aggregate([bad], st)
+    short = synthetic_run("ref", "quasistatic", 0.0, force_saturating(1e6, DS), d_max=2.0e-4)
+    with pytest.raises(ValueError, match="short of solver.d_max"):
+        aggregate([short] + runs[1:], st)
+
+
+def test_aggregate_reads_files(tmp_path):
+    st = settings()
+    paths = []
+    for run in study_runs(st):
+        p = tmp_path / f"{run.attrs['material']}_{run.attrs['mode']}_{run.attrs['acceleration']:g}.nc"
+        io.write_dataset(run, p, {"test": 1})
+        paths.append(p)
+    ds = aggregate(paths, st)
+    ref = aggregate(study_runs(st), st)
+    np.testing.assert_array_equal(ds["stiffness"].values, ref["stiffness"].values)
+
+
+# ----------------------------------------------------------------------------------------------
+# reading back and selecting
+# ----------------------------------------------------------------------------------------------
+def test_open_study_round_trip_and_selection(tmp_path):
+    st = settings()
+    ds = aggregate(study_runs(st), st)
+    path = io.write_dataset(ds, tmp_path / "study.nc", {"study": {"surface": "synth"}}, stage="study")
+    back = open_study(path)
+    c = back.study.sel_case(material="ref", mode="dynamic", accel=500)
+    assert c["case"].item() == case_label("ref", "dynamic", 500) == "ref/dynamic/500"
+    np.testing.assert_array_equal(c["stiffness"].values, ds.sel(case="ref/dynamic/500")["stiffness"].values)
+    assert float(c["saturated_stiffness"]) == pytest.approx(2.75e6 * (1 - math.exp(-2.15e-4 / DS)), rel=1e-3)
+    assert back.study.labels(material="other") == ["other/quasistatic/0", "other/dynamic/50", "other/dynamic/500"]
+    assert back.study.select(mode="dynamic", accel=50).sizes["case"] == 2
+    qs = back.study.sel_case(material="other", mode="quasistatic")
+    assert float(qs["accel"]) == 0.0
+    assert back["stiffness"].attrs["units"] == "N/m" and back["accel"].attrs["units"] == "m/s2"
+    assert back.attrs["reference_material"] == "ref"
+    np.testing.assert_allclose(back.attrs["saturation_range_m"], [1.8e-4, 2.5e-4])
+    with pytest.raises(KeyError, match="ref/dynamic/250"):
+        back.study.sel_case(material="ref", mode="dynamic", accel=250)
+    with pytest.raises(KeyError, match="accel is required"):
+        back.study.sel_case(material="ref", mode="dynamic")
+    other = io.write_dataset(xr.Dataset({"x": ("a", [1.0], {"units": "1", "long_name": "x"})}), tmp_path / "x.nc", {})
+    with pytest.raises(ValueError, match="not a tyreroad study dataset"):
+        open_study(other)
+
+
+def test_variant_members_validation():
+    mats = ["ref", "lo", "hi"]
+    v = {"loss": [[1.5, "hi"], [1.0, "ref"], [0.5, "lo"]], "density": [[1.0, "ref"]]}
+    assert variant_members(v, "loss", mats, "ref") == [(0.5, "lo"), (1.0, "ref"), (1.5, "hi")]
+    assert variant_members(v, "density", mats, "ref") == [(1.0, "ref")]
+    with pytest.raises(ValueError, match="not in the study"):
+        variant_members({"loss": [[1.0, "ref"], [2.0, "zz"]]}, "loss", mats, "ref")
+    with pytest.raises(ValueError, match="scale 1"):
+        variant_members({"loss": [[0.5, "lo"]]}, "loss", mats, "ref")
+    with pytest.raises(ValueError, match="'density' group"):
+        variant_members({"loss": []}, "density", mats, "ref")
+
+
+# ----------------------------------------------------------------------------------------------
+# figures 5-8
+# ----------------------------------------------------------------------------------------------
+def test_study_figures_written(tmp_path):
+    import matplotlib.image as mpimg
+
+    from tyreroad.plots.study import FIGURES, plot_study_figures
+
+    mats = ("ref", "lo", "hi")
+    st = StudySettings.from_config({"surface": "synth", "reference_material": "ref", "materials": list(mats),
+                                    "accelerations": [50, 250, 500]}, d_max=D_MAX)
+    S = {"quasistatic": 2.0e6, 50.0: 2.3e6, 250.0: 2.5e6, 500.0: 2.75e6}
+    scale = {"ref": 1.0, "lo": 1.03, "hi": 0.97}
+    runs = [synthetic_run(m, mode, a, force_saturating(S[mode if mode == "quasistatic" else a] * scale[m], DS))
+            for m, mode, a in expected_cases(st)]
+    ds = aggregate(runs, st)
+    variants = {"loss": [[0.5, "lo"], [1.0, "ref"], [1.5, "hi"]], "density": [[1.0, "ref"], [2.0, "hi"]]}
+    out = {name: tmp_path / f"{name}.png" for name in FIGURES}
+    written = plot_study_figures(ds, variants, out)
+    assert [p.name for p in written] == [f"{n}.png" for n in FIGURES]
+    for p in written:
+        img = mpimg.imread(p)
+        assert img.shape[0] > 500 and img.shape[1] > 800
+        assert img[..., :3].std() > 0.05  # not a blank canvas
+    with pytest.raises(ValueError, match="not in the study"):
+        plot_study_figures(ds, {"loss": [[1.0, "ref"], [0.5, "tread-eta0.5"]], "density": [[1.0, "ref"]]}, out)
+    with pytest.raises(ValueError, match="expected 4 output paths"):
+        plot_study_figures(ds, variants, list(out.values())[:3])

@@ -1,0 +1,218 @@
+"""Figures 5-8 of the study (SPEC section 7) from the study dataset.
+
+* fig5_force: F(d) of the reference material, quasi-static and every acceleration.
+* fig6_stiffness: K(d) for the same cases, with the contact fraction in a second panel.
+* fig7_loss: K(d) of the loss-factor variants at the reference (highest) acceleration.
+* fig8_density: K(d) of the density variants at the reference acceleration.
+
+Which material is which variant is not read from material names: the caller passes the variant
+groups ``{"loss": [[scale, name], ...], "density": [[scale, name], ...]}`` that
+:func:`tyreroad.pipeline.material_variants` resolves from the material presets (``base:`` with
+``loss_scale`` / ``density_scale``); :func:`tyreroad.study.variant_members` validates them.
+
+Plots show d in mm, F in N, K in MN/m.
+"""
+
+from __future__ import annotations
+
+import logging
+from pathlib import Path
+from typing import Any, Mapping, Sequence
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import xarray as xr  # noqa: E402
+
+from .. import io  # noqa: E402
+from ..study import variant_members  # noqa: E402
+
+logger = logging.getLogger(__name__)
+
+__all__ = [
+    "FIGURES",
+    "plot_force",
+    "plot_stiffness",
+    "plot_variants",
+    "plot_study_figures",
+]
+
+FIGURES = ("fig5_force", "fig6_stiffness", "fig7_loss", "fig8_density")
+
+_MM = 1e3
+_MN = 1e-6
+
+
+def _reference(study: xr.Dataset, reference_material: str | None) -> str:
+    ref = reference_material or study.attrs.get("reference_material")
+    if not ref:
+        raise ValueError("reference material not given and not in the study attributes")
+    if ref not in set(study["material"].values.astype(str)):
+        raise ValueError(f"reference material {ref!r} is not in the study")
+    return str(ref)
+
+
+def _accels(study: xr.Dataset, material: str) -> list[float]:
+    sub = study.study.select(material=material, mode="dynamic")
+    return sorted(float(a) for a in sub["accel"].values)
+
+
+def _cases(study: xr.Dataset, material: str) -> list[tuple[str, xr.Dataset]]:
+    """(legend label, case) for the quasi-static run and the dynamic runs by acceleration."""
+    out = [("quasi-static", study.study.sel_case(material=material, mode="quasistatic"))]
+    for a in _accels(study, material):
+        out.append((f"dynamic, a = {a:g} m/s²", study.study.sel_case(material=material, mode="dynamic", accel=a)))
+    return out
+
+
+def _colors(n: int) -> list:
+    return [plt.get_cmap("viridis")(x) for x in np.linspace(0.0, 0.85, n)]
+
+
+def _save(fig, path: str | Path) -> Path:
+    with io.atomic_path(path) as tmp:
+        fig.savefig(tmp, format="png", dpi=150)
+    plt.close(fig)
+    logger.info("wrote %s", path)
+    return Path(path)
+
+
+def plot_force(study: xr.Dataset, path: str | Path, reference_material: str | None = None) -> Path:
+    """Figure 5: total contact force F(d) of the reference material (QS and every acceleration)."""
+    ref = _reference(study, reference_material)
+    d = study["indentation"].values * _MM
+    fig, ax = plt.subplots(figsize=(6.4, 4.6), layout="constrained")
+    cases = _cases(study, ref)
+    for (label, c), color in zip(cases, ["k"] + _colors(len(cases) - 1)):
+        ax.plot(d, c["force"].values, color=color, ls="--" if label == "quasi-static" else "-", label=label)
+    ax.set_xlabel("indentation d [mm]")
+    ax.set_ylabel("contact force F [N]")
+    ax.set_title(f"Contact force, material {ref}")
+    ax.set_xlim(0, d[-1])
+    ax.set_ylim(bottom=0)
+    ax.grid(alpha=0.3)
+    ax.legend()
+    return _save(fig, path)
+
+
+def plot_stiffness(study: xr.Dataset, path: str | Path, reference_material: str | None = None) -> Path:
+    """Figure 6: contact stiffness K(d) (top) and fraction of elements in contact (bottom)."""
+    ref = _reference(study, reference_material)
+    d = study["indentation"].values * _MM
+    fig, (ax, ax2) = plt.subplots(
+        2, 1, sharex=True, figsize=(6.4, 6.4), layout="constrained", gridspec_kw={"height_ratios": [2, 1]}
+    )
+    cases = _cases(study, ref)
+    for (label, c), color in zip(cases, ["k"] + _colors(len(cases) - 1)):
+        ls = "--" if label == "quasi-static" else "-"
+        ax.plot(d, c["stiffness"].values * _MN, color=color, ls=ls, label=label)
+        ax2.plot(d, c["contact_fraction"].values * 100, color=color, ls=ls, label=label)
+    sat = study.attrs.get("saturation_range_m")
+    if sat is not None:
+        sat = np.atleast_1d(sat)
+        ax.axvspan(sat[0] * _MM, sat[1] * _MM, color="0.9", zorder=0, label="K_sat range")
+    ax.set_ylabel("contact stiffness K [MN/m]")
+    ax.set_title(f"Contact stiffness, material {ref}")
+    ax.set_ylim(bottom=0)
+    ax.grid(alpha=0.3)
+    ax.legend(loc="lower right")
+    ax2.set_xlabel("indentation d [mm]")
+    ax2.set_ylabel("elements in contact [%]")
+    ax2.set_xlim(0, d[-1])
+    ax2.set_ylim(0, 100)
+    ax2.grid(alpha=0.3)
+    return _save(fig, path)
+
+
+def plot_variants(
+    study: xr.Dataset,
+    members: Sequence[tuple[float, str]],
+    kind: str,
+    accel: float,
+    path: str | Path,
+) -> Path:
+    """Figures 7/8: K(d) of material variants at one acceleration.
+
+    Parameters
+    ----------
+    study : xarray.Dataset
+        The study dataset.
+    members : sequence of (float, str)
+        (scale, material) of the variants, e.g. from :func:`tyreroad.study.variant_members`.
+    kind : {"loss", "density"}
+        Which property the scale multiplies (legend and title).
+    accel : float
+        Acceleration of the dynamic runs shown [m/s^2].
+    path : path-like
+        Output PNG.
+    """
+    symbol = {"loss": "η", "density": "ρ"}[kind]
+    what = {"loss": "loss factor", "density": "density"}[kind]
+    d = study["indentation"].values * _MM
+    fig, ax = plt.subplots(figsize=(6.4, 4.6), layout="constrained")
+    styles = ["-", "-.", ":"]
+    others = [m for m in members if m[0] != 1.0]
+    colors = dict(zip(others, _colors(len(others))))
+    for i, (scale, material) in enumerate(members):
+        c = study.study.sel_case(material=material, mode="dynamic", accel=accel)
+        # the reference (scale 1) is drawn like the quasi-static curve of fig 5-6: black dashed
+        color, ls = ("k", "--") if scale == 1.0 else (colors[(scale, material)], styles[i % len(styles)])
+        ax.plot(d, c["stiffness"].values * _MN, color=color, ls=ls, label=f"{symbol} ×{scale:g} ({material})")
+    ax.set_xlabel("indentation d [mm]")
+    ax.set_ylabel("contact stiffness K [MN/m]")
+    ax.set_title(f"Contact stiffness, {what} variants, dynamic a = {accel:g} m/s²")
+    ax.set_xlim(0, d[-1])
+    ax.set_ylim(bottom=0)
+    ax.grid(alpha=0.3)
+    ax.legend(loc="lower right")
+    return _save(fig, path)
+
+
+def plot_study_figures(
+    study: xr.Dataset,
+    variants: Mapping[str, Any],
+    outputs: Mapping[str, str | Path] | Sequence[str | Path],
+    reference_material: str | None = None,
+    accel: float | None = None,
+) -> list[Path]:
+    """Write figures 5-8.
+
+    Parameters
+    ----------
+    study : xarray.Dataset
+        The study dataset.
+    variants : mapping
+        ``{"loss": [[scale, name], ...], "density": [[scale, name], ...]}``.
+    outputs : mapping or sequence of path-like
+        ``{figure name: path}`` with the names of :data:`FIGURES`, or four paths in that order.
+    reference_material : str, optional
+        Default: the study's ``reference_material`` attribute.
+    accel : float, optional
+        Acceleration of figures 7-8 [m/s^2]; default the highest dynamic acceleration.
+
+    Returns
+    -------
+    list of pathlib.Path
+        The written files, in the order of :data:`FIGURES`.
+    """
+    if isinstance(outputs, Mapping):
+        missing = [n for n in FIGURES if n not in outputs]
+        if missing:
+            raise ValueError(f"outputs lack the figure(s) {missing}; expected keys {FIGURES}")
+        paths = [outputs[n] for n in FIGURES]
+    else:
+        paths = list(outputs)
+        if len(paths) != len(FIGURES):
+            raise ValueError(f"expected {len(FIGURES)} output paths ({', '.join(FIGURES)}), got {len(paths)}")
+    ref = _reference(study, reference_material)
+    if accel is None:
+        accel = _accels(study, ref)[-1]
+    materials = list(dict.fromkeys(study["material"].values.astype(str)))
+    return [
+        plot_force(study, paths[0], ref),
+        plot_stiffness(study, paths[1], ref),
+        plot_variants(study, variant_members(variants, "loss", materials, ref), "loss", accel, paths[2]),
+        plot_variants(study, variant_members(variants, "density", materials, ref), "density", accel, paths[3]),
+    ]
