@@ -1,10 +1,94 @@
-"""Compliance of a visco-elastic layer bonded to a rigid base (SPEC section 5)."""
+r"""Compliance of a visco-elastic layer bonded to a rigid base (SPEC section 5).
+
+Geometry and conventions: a homogeneous, isotropic, visco-elastic layer occupies 0 <= z <= h, z pointing
+from the road into the tread; it is bonded to a rigid base at z = h (u = 0) and loaded at z = 0 by a normal
+pressure p exp(i(k.x + w t)) without shear traction. Time convention exp(+i w t); the complex Young's modulus
+E(w) has Im E >= 0 for w > 0, so the compliance has Im H <= 0 (passive layer). The response depends on |k|.
+
+With mu = E / (2 (1 + nu)), M = E (1 - nu) / ((1 + nu)(1 - 2 nu)) (P-wave modulus),
+eps_s = rho w^2 / mu, eps_p = rho w^2 / M, alpha = sqrt(k^2 - eps_p), beta = sqrt(k^2 - eps_s)
+(Re >= 0) and Q = 2 k^2 - eps_s, the surface compliance H = u_z(0) / p is (SPEC 5)
+
+    H = alpha eps_s (k^2 C_a S_b - alpha beta S_a C_b)
+        / ( mu [alpha beta (Q^2 + 4 k^4) C_a C_b - k^2 (Q^2 + 4 alpha^2 beta^2) S_a S_b - 4 alpha beta k^2 Q] ),
+
+S_a = sinh(alpha h), C_a = cosh(alpha h), likewise for beta. Evaluated literally this overflows for large kh
+and is 0/0 as w -> 0 (the bracket in the numerator is O(eps), the denominator O(eps^2)).
+
+Stable form used here
+---------------------
+All lengths are scaled by h: x = k h, a = alpha h, b = beta h, e_s = eps_s h^2, e_p = eps_p h^2 = r e_s with
+the real constant r = mu / M = (1 - 2 nu) / (2 (1 - nu)). Let p = a b, y = a - b, t = exp(-(a + b)) (|t| <= 1).
+Exact identities used:
+
+* y = (e_s - e_p) / (a + b) = e_s (1 - r) / (a + b), so sinh(y) / e_s = shc(y) (1 - r) / (a + b) with
+  shc(z) = sinh(z) / z (Taylor series for |z| < 0.1): the O(eps) smallness of y is carried analytically.
+* P / e_s with P = a b - x^2:  (e_p - x^2 (1 + r)) / (a b + x^2)   if |e_s| <= x^2 (then |a b + x^2| >= x^2),
+                               (a b - x^2) / e_s                  otherwise (no cancellation there).
+* R = Q^2 - 4 k^2 alpha beta (the Rayleigh function), R h^4 / e_s = -4 x^2 (1 + P / e_s) + e_s, where
+  1 + P / e_s = (a b + e_p - r x^2) / (a b + x^2) in the first regime.
+* (Q - 2 alpha beta) h^2 / e_s = e_s (1 - r)^2 / (a + b)^2 + r,
+  (Q^2 + 4 k^2 alpha beta) h^4 = (2 x^2 - e_s)^2 + 4 x^2 a b.
+
+Writing C_a C_b, S_a S_b, C_a S_b, S_a C_b through cosh/sinh of (a + b) and y, the closed form becomes
+H = alpha eps_s N / (mu D) with
+D = (1/2)(p - k^2) R cosh(a+b) + (1/2)[k^2 (Q - 2p)^2 + p eps_s^2] + (p + k^2)(Q^2 + 4 p k^2) sinh^2(y/2),
+N = -(1/2)[(p - k^2) sinh(a+b) + (p + k^2) sinh(y)] (dimensional p = alpha beta here).
+Multiplying N and D by 2 t / eps_s and 2 t / eps_s^2 (h-scaled) gives the form actually evaluated:
+
+    n = -(1/2) [ (P/e_s) (1 - t^2) + 2 (x^2 + p) (t sinh(y) / e_s) ]
+    d = (1/2) (P/e_s) (R h^4/e_s) (1 + t^2) + t [ x^2 ((Q - 2p) h^2/e_s)^2 + p ]
+        + 2 (x^2 + p) (Q^2 + 4 p x^2) h^4 (t sinh^2(y/2) / e_s^2)
+    H = h a n / (mu d),
+
+with 1 - t^2 = -expm1(-2 (a + b)); t sinh(y) / e_s = t shc(y) (1 - r) / (a + b) and
+t sinh^2(y/2) / e_s^2 = t [shc(y/2) (1 - r) / (2 (a + b))]^2 when |Re y| <= 2, and otherwise
+t sinh(y) = (exp(-2b) - exp(-2a)) / 2, t sinh^2(y/2) = (exp(-2b) + exp(-2a)) / 4 - t / 2 (no overflow, and
+no cancellation because |cosh y| >= cosh 2 there). Every quantity is finite at e_s = 0 (for k > 0), where the
+form reduces exactly to the static result H0 = 2 (1 - nu^2) / (E k) L(kh); for kh -> inf (t -> 0) it reduces
+to the half-space -alpha eps_s / (mu R); for k = 0 to -alpha tanh(alpha h) / (rho w^2) = tan(w h / c_p) /
+(rho c_p w). The single point k = 0, w = 0 (a + b = 0) is set to its limit h / M.
+The remaining cancellation is the physical one of the static numerator (3 - 4 nu) sinh 2x - 2x for small kh and
+nu -> 1/2 (a loss of roughly 1 / (2 r) ulp): measured against an mpmath evaluation of the closed form above
+(40 digits plus twice the digits the literal form cancels), the largest relative error is 2e-12 over
+kh in [1e-3, 500], f in [1e-3 Hz, 25.6 kHz], nu <= 0.4999, and 2e-11 at nu = 0.49999.
+
+Implementation: a numba kernel (``_compliance_kernel``, one complex scalar evaluation per point, parallel
+over points) behind the validating :func:`compliance`; ``_compliance_numpy`` is the same form in plain numpy,
+kept as the test reference for the kernel.
+
+Branches: alpha, beta are principal square roots (Re >= 0). For a passive material Im(k^2 - eps) >= 0, so both
+lie in the first quadrant; the layer compliance is even in alpha and in beta, so only the half-space depends
+on the branch, and there the principal branch is the one that decays (or radiates, e^{-i|alpha|z}, for lossless
+media) away from the surface. A zero imaginary part with negative sign is normalised so that a lossless
+propagating wave gets Im alpha > 0.
+
+References
+----------
+Hayes, Keer, Herrmann & Mockros (1972), J. Biomech. 5, 541-551. doi:10.1016/0021-9290(72)90010-3
+Lamb (1904), Phil. Trans. R. Soc. A 203, 1 (half-space, Rayleigh pole). doi:10.1098/rsta.1904.0013
+"""
 
 from __future__ import annotations
 
-import numpy as np
+import cmath
+import math
 
-__all__ = ["static_layer_factor"]
+import numpy as np
+from numba import njit, prange
+
+__all__ = [
+    "static_layer_factor",
+    "compliance",
+    "static_compliance",
+    "halfspace_compliance",
+    "backing_force_transfer",
+]
+
+# |z| below which sinh(z)/z is summed as a Taylor series (next term z^12/13! < 2e-22)
+_SHC_SERIES_LIMIT = 0.1
+# |Re(a - b)| above which t sinh(y) and t sinh^2(y/2) are formed from exp(-2a), exp(-2b)
+_EXP_FORM_LIMIT = 2.0
 
 
 def static_layer_factor(x, poisson):
@@ -31,8 +115,8 @@ def static_layer_factor(x, poisson):
 
     References
     ----------
-    Hayes, Keer, Herrmann & Mockros (1972), J. Mech. Phys. Solids 20, 355.
-    doi:10.1016/0022-5096(72)90013-9
+    Hayes, Keer, Herrmann & Mockros (1972), J. Biomech. 5, 541-551.
+    doi:10.1016/0021-9290(72)90010-3
     """
     x = np.asarray(x, dtype=float)
     nu = float(poisson)
@@ -51,3 +135,337 @@ def static_layer_factor(x, poisson):
         num = sinh_minus_y_over_cosh + (2.0 - 4.0 * nu) * tanh
         den = a + (y**2 / 2.0 + 5.0 - 12.0 * nu + 8.0 * nu**2) * sech
     return num / den
+
+
+def _validate_poisson(poisson):
+    nu = float(poisson)
+    if not (0.0 < nu < 0.5):
+        raise ValueError(f"poisson ratio must lie in (0, 0.5), got {poisson!r}")
+    return nu
+
+
+def _positive(name, value):
+    v = float(value)
+    if not (np.isfinite(v) and v > 0.0):
+        raise ValueError(f"{name} must be a positive finite number, got {value!r}")
+    return v
+
+
+def _nonnegative_array(name, value):
+    arr = np.asarray(value, dtype=float)
+    if np.any(~np.isfinite(arr)) or np.any(arr < 0):
+        raise ValueError(f"{name} must be finite and >= 0")
+    return arr
+
+
+def _modulus_array(modulus):
+    e = np.asarray(modulus, dtype=complex)
+    if np.any(~np.isfinite(e)) or np.any(e.real <= 0) or np.any(e.imag < 0):
+        raise ValueError("modulus must be finite with Re E > 0 and Im E >= 0 (passive, exp(+i w t))")
+    return e
+
+
+def _branch_sqrt(z):
+    """Principal square root with Re >= 0; a purely imaginary root is given Im >= 0."""
+    s = np.sqrt(z)
+    return np.where((s.real == 0.0) & (s.imag < 0.0), -s, s)
+
+
+def _shc(z):
+    """sinh(z) / z for complex z, with the Taylor series near 0."""
+    z = np.asarray(z, dtype=complex)
+    small = np.abs(z) < _SHC_SERIES_LIMIT
+    zs = np.where(small, z, 0.0)
+    z2 = zs * zs
+    series = 1 + z2 / 6 * (1 + z2 / 20 * (1 + z2 / 42 * (1 + z2 / 72 * (1 + z2 / 110))))
+    zb = np.where(small, 1.0, z)
+    with np.errstate(over="ignore", invalid="ignore"):
+        direct = np.sinh(zb) / zb
+    return np.where(small, series, direct)
+
+
+def _moduli(modulus, nu):
+    """Shear modulus mu and P-wave modulus M for Young's modulus E and Poisson's ratio nu."""
+    mu = modulus / (2.0 * (1.0 + nu))
+    m = modulus * (1.0 - nu) / ((1.0 + nu) * (1.0 - 2.0 * nu))
+    return mu, m
+
+
+def _compliance_numpy(x, e_s, mu, r, h):
+    """Plain-numpy evaluation of the stable form (reference for the numba kernel; same formulas).
+
+    x = k h [-], e_s = rho (w h)^2 / mu [-] (complex), mu [Pa] (complex), r = mu / M [-], h [m];
+    arrays already broadcast to one shape.
+    """
+    e_p = r * e_s
+    origin = (x == 0.0) & (e_s == 0.0)
+    # the single degenerate point (a + b = 0) is replaced by a harmless value and set to h/M at the end
+    x = np.where(origin, 1.0, x)
+    x2 = x * x
+    a = _branch_sqrt(x2 - e_p)
+    b = _branch_sqrt(x2 - e_s)
+    ab = a * b
+    apb = a + b
+
+    near_static = np.abs(e_s) <= x2
+    with np.errstate(divide="ignore", invalid="ignore"):
+        es_far = np.where(near_static, 1.0, e_s)
+        p_over_e = np.where(near_static, (e_p - x2 * (1.0 + r)) / (ab + x2), (ab - x2) / es_far)
+        one_plus = np.where(near_static, (ab + e_p - r * x2) / (ab + x2), 1.0 + p_over_e)
+    rayleigh = -4.0 * x2 * one_plus + e_s  # R h^4 / e_s
+    q_minus_2p = e_s * (1.0 - r) ** 2 / apb**2 + r  # (Q - 2 alpha beta) h^2 / e_s
+    q4 = (2.0 * x2 - e_s) ** 2 + 4.0 * x2 * ab  # (Q^2 + 4 k^2 alpha beta) h^4
+
+    t = np.exp(-apb)
+    one_minus_t2 = -np.expm1(-2.0 * apb)
+    y = a - b
+    big = np.abs(y.real) > _EXP_FORM_LIMIT
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        e2a = np.exp(-2.0 * a)
+        e2b = np.exp(-2.0 * b)
+        es_safe = np.where(big, e_s, 1.0)
+        t_sinh = np.where(big, 0.5 * (e2b - e2a) / es_safe, t * _shc(np.where(big, 0.0, y)) * (1.0 - r) / apb)
+        half = _shc(np.where(big, 0.0, 0.5 * y)) * (1.0 - r) / (2.0 * apb)
+        t_sinh2 = np.where(big, (0.25 * (e2b + e2a) - 0.5 * t) / es_safe**2, t * half * half)
+
+    n = -0.5 * (p_over_e * one_minus_t2 + 2.0 * (x2 + ab) * t_sinh)
+    d = 0.5 * p_over_e * rayleigh * (1.0 + t * t) + t * (x2 * q_minus_2p**2 + ab) + 2.0 * (x2 + ab) * q4 * t_sinh2
+    out = h * a * n / (mu * d)
+    return np.where(origin, h * r / mu, out)
+
+
+@njit(cache=True)
+def _shc_scalar(z):
+    if abs(z) < _SHC_SERIES_LIMIT:
+        z2 = z * z
+        return 1 + z2 / 6 * (1 + z2 / 20 * (1 + z2 / 42 * (1 + z2 / 72 * (1 + z2 / 110))))
+    return cmath.sinh(z) / z
+
+
+@njit(cache=True)
+def _sqrt_scalar(z):
+    s = cmath.sqrt(z)
+    if s.real == 0.0 and s.imag < 0.0:
+        return -s
+    return s
+
+
+@njit(cache=True)
+def _expm1_scalar(z):
+    # e^z - 1 = expm1(u) cos v - 2 sin^2(v/2) + i e^u sin v, accurate for small |z|
+    u, v = z.real, z.imag
+    sh = math.sin(0.5 * v)
+    return complex(math.expm1(u) * math.cos(v) - 2.0 * sh * sh, math.exp(u) * math.sin(v))
+
+
+@njit(cache=True, parallel=True)
+def _compliance_kernel(x, e_s, mu, r, h, out):
+    """Stable-form compliance for flat arrays x [-], e_s [-], mu [Pa]; writes H [m/Pa] into out."""
+    for i in prange(x.size):
+        xi = x[i]
+        es = e_s[i]
+        if xi == 0.0 and es == 0.0:
+            out[i] = h * r / mu[i]
+            continue
+        x2 = xi * xi
+        ep = r * es
+        a = _sqrt_scalar(x2 - ep)
+        b = _sqrt_scalar(x2 - es)
+        ab = a * b
+        apb = a + b
+        if abs(es) <= x2:
+            p_over_e = (ep - x2 * (1.0 + r)) / (ab + x2)
+            one_plus = (ab + ep - r * x2) / (ab + x2)
+        else:
+            p_over_e = (ab - x2) / es
+            one_plus = 1.0 + p_over_e
+        rayleigh = -4.0 * x2 * one_plus + es
+        q_minus_2p = es * (1.0 - r) ** 2 / (apb * apb) + r
+        q4 = (2.0 * x2 - es) ** 2 + 4.0 * x2 * ab
+        t = cmath.exp(-apb)
+        one_minus_t2 = -_expm1_scalar(-2.0 * apb)
+        y = a - b
+        if abs(y.real) > _EXP_FORM_LIMIT:
+            e2a = cmath.exp(-2.0 * a)
+            e2b = cmath.exp(-2.0 * b)
+            t_sinh = 0.5 * (e2b - e2a) / es
+            t_sinh2 = (0.25 * (e2b + e2a) - 0.5 * t) / (es * es)
+        else:
+            t_sinh = t * _shc_scalar(y) * (1.0 - r) / apb
+            half = _shc_scalar(0.5 * y) * (1.0 - r) / (2.0 * apb)
+            t_sinh2 = t * half * half
+        n = -0.5 * (p_over_e * one_minus_t2 + 2.0 * (x2 + ab) * t_sinh)
+        d = 0.5 * p_over_e * rayleigh * (1.0 + t * t) + t * (x2 * q_minus_2p**2 + ab) + 2.0 * (x2 + ab) * q4 * t_sinh2
+        out[i] = h * a * n / (mu[i] * d)
+
+
+def compliance(k, omega, modulus, poisson, density, thickness):
+    """Dynamic surface compliance H(k, w) = u_z(0) / p of a layer bonded to a rigid base.
+
+    Normal pressure p at the free surface z = 0, no shear traction, u = 0 at z = h; 3-D, depends on |k|.
+    Evaluated in the stable form of the module docstring (full precision for kh up to >= 500, nu up to
+    0.4999, w from 0 to the Nyquist frequency). All array arguments broadcast together. The work runs in a
+    numba kernel parallel over points (threads: ``numba.set_num_threads``); about 1 us per point per core.
+
+    Parameters
+    ----------
+    k : array_like
+        Wavenumber magnitude |k| [rad/m], >= 0.
+    omega : array_like
+        Angular frequency [rad/s], >= 0.
+    modulus : array_like
+        Complex Young's modulus E(w) [Pa] (Re > 0, Im >= 0), broadcastable with ``omega``.
+    poisson : float
+        Poisson's ratio nu [-], 0 < nu < 0.5.
+    density : float
+        Density rho [kg/m^3].
+    thickness : float
+        Layer thickness h [m].
+
+    Returns
+    -------
+    numpy.ndarray of complex
+        H [m/Pa]; Im H <= 0 for w > 0 and a passive modulus. H(0, 0) = h / M.
+
+    References
+    ----------
+    Hayes, Keer, Herrmann & Mockros (1972), J. Biomech. 5, 541-551.
+    doi:10.1016/0021-9290(72)90010-3
+    """
+    nu = _validate_poisson(poisson)
+    rho = _positive("density", density)
+    h = _positive("thickness", thickness)
+    k = _nonnegative_array("k", k)
+    omega = _nonnegative_array("omega", omega)
+    e = _modulus_array(modulus)
+    k, omega, e = np.broadcast_arrays(k, omega, e)
+    mu, _ = _moduli(e, nu)
+    r = (1.0 - 2.0 * nu) / (2.0 * (1.0 - nu))  # mu / M, real
+    x = np.ascontiguousarray(k * h, dtype=float).ravel()
+    e_s = np.ascontiguousarray(rho * (omega * h) ** 2 / mu, dtype=complex).ravel()
+    mu_flat = np.ascontiguousarray(mu, dtype=complex).ravel()
+    out = np.empty(x.size, dtype=complex)
+    _compliance_kernel(x, e_s, mu_flat, r, h, out)
+    return out.reshape(k.shape)[()]
+
+
+def static_compliance(k, modulus, poisson, thickness):
+    """Static surface compliance H0(k) = 2 (1 - nu^2) / (E k) L(kh) of a layer bonded to a rigid base.
+
+    Parameters
+    ----------
+    k : array_like
+        Wavenumber magnitude [rad/m], >= 0.
+    modulus : array_like
+        Young's modulus [Pa] (real or complex), broadcastable with ``k``.
+    poisson : float
+        Poisson's ratio [-], 0 < nu < 0.5.
+    thickness : float
+        Layer thickness h [m].
+
+    Returns
+    -------
+    numpy.ndarray
+        H0 [m/Pa] (complex if ``modulus`` is complex); H0(0) = h / M.
+
+    References
+    ----------
+    Hayes, Keer, Herrmann & Mockros (1972), J. Biomech. 5, 541-551.
+    doi:10.1016/0021-9290(72)90010-3
+    """
+    nu = _validate_poisson(poisson)
+    h = _positive("thickness", thickness)
+    k = _nonnegative_array("k", k)
+    e = np.asarray(modulus)
+    if np.any(~np.isfinite(e)) or np.any(np.real(e) <= 0):
+        raise ValueError("modulus must be finite with a positive real part")
+    x = k * h
+    xs = np.where(x > 0, x, 1.0)
+    # L(x)/x -> (1 - 2 nu) / (2 (1 - nu)^2) as x -> 0
+    l_over_x = np.where(x > 0, static_layer_factor(xs, nu) / xs, (1.0 - 2.0 * nu) / (2.0 * (1.0 - nu) ** 2))
+    return (2.0 * (1.0 - nu * nu) * h / e * l_over_x)[()]
+
+
+def halfspace_compliance(k, omega, modulus, poisson, density):
+    """Dynamic surface compliance of a visco-elastic half-space, H = alpha eps_s / (mu (4 k^2 alpha beta - Q^2)).
+
+    Evaluated as H = -alpha / (mu R / eps_s) with R / eps_s = -4 k^2 (1 + P/eps_s) + eps_s and P = alpha beta - k^2
+    written without cancellation (module docstring), so it is exact at w = 0 (static 2 (1 - nu^2) / (E k)) and
+    at k = 0 (-i / (rho c_p w)). Lossless: pole at the Rayleigh wavenumber k = w / c_R.
+
+    Parameters
+    ----------
+    k : array_like
+        Wavenumber magnitude [rad/m], >= 0.
+    omega : array_like
+        Angular frequency [rad/s], >= 0.
+    modulus : array_like
+        Complex Young's modulus [Pa], broadcastable with ``omega``.
+    poisson : float
+        Poisson's ratio [-].
+    density : float
+        Density [kg/m^3].
+
+    Returns
+    -------
+    numpy.ndarray of complex
+        H [m/Pa]; infinite at k = 0, w = 0.
+
+    References
+    ----------
+    Lamb (1904), Phil. Trans. R. Soc. A 203, 1. doi:10.1098/rsta.1904.0013
+    """
+    nu = _validate_poisson(poisson)
+    rho = _positive("density", density)
+    k = _nonnegative_array("k", k)
+    omega = _nonnegative_array("omega", omega)
+    e = _modulus_array(modulus)
+    k, omega, e = np.broadcast_arrays(k, omega, e)
+    mu, _ = _moduli(e, nu)
+    r = (1.0 - 2.0 * nu) / (2.0 * (1.0 - nu))
+    k2 = k * k
+    eps_s = rho * omega**2 / mu
+    eps_p = r * eps_s
+    origin = (k == 0.0) & (eps_s == 0.0)
+    k2 = np.where(origin, 1.0, k2)
+    alpha = _branch_sqrt(k2 - eps_p)
+    beta = _branch_sqrt(k2 - eps_s)
+    ab = alpha * beta
+    near_static = np.abs(eps_s) <= k2
+    with np.errstate(divide="ignore", invalid="ignore"):
+        one_plus = np.where(
+            near_static, (ab + eps_p - r * k2) / (ab + k2), 1.0 + (ab - k2) / np.where(near_static, 1.0, eps_s)
+        )
+        out = -alpha / (mu * (-4.0 * k2 * one_plus + eps_s))
+    return np.where(origin, complex(np.inf, 0.0), out)[()]
+
+
+def backing_force_transfer(omega, modulus, poisson, density, thickness):
+    """Ratio of the normal force on the rigid base to the total surface force, 1 / cos(w h / c_p(w)).
+
+    The total surface force is the k = 0 component of the pressure; for k = 0 the layer is a 1-D
+    constrained rod, u(z) ∝ sin(kappa (h - z)), kappa = w / c_p, c_p = sqrt(M / rho), so the stress at the
+    base over the stress at the surface is 1 / cos(kappa h) (-> 1 at w = 0).
+
+    Parameters
+    ----------
+    omega : array_like
+        Angular frequency [rad/s], >= 0.
+    modulus : array_like
+        Complex Young's modulus [Pa], broadcastable with ``omega``.
+    poisson, density, thickness : float
+        Poisson's ratio [-], density [kg/m^3], thickness [m].
+
+    Returns
+    -------
+    numpy.ndarray of complex
+        Transfer ratio [-].
+    """
+    nu = _validate_poisson(poisson)
+    rho = _positive("density", density)
+    h = _positive("thickness", thickness)
+    omega = _nonnegative_array("omega", omega)
+    e = _modulus_array(modulus)
+    _, m = _moduli(e, nu)
+    c_p = np.sqrt(m / rho)
+    return (1.0 / np.cos(omega * h / c_p))[()]
