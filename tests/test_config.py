@@ -96,3 +96,19 @@ def test_bad_config_stops_snakemake_before_any_job(tmp_path):
     assert proc.returncode != 0
     assert "element_size" in proc.stdout + proc.stderr
     assert not (tmp_path / "results").exists()
+
+
+def test_schema_defaults_are_accepted_by_the_package(config):
+    """Snakemake inserts schema defaults into the config; the package must accept the result."""
+    from tyreroad.contact import SolverSettings
+    from tyreroad.greens import GreensSettings
+    from tyreroad.material import material_from_config
+    from tyreroad.springs import SpringModel
+
+    cfg = copy.deepcopy(config)
+    validate(cfg, SCHEMA)
+    for name in cfg["materials"]:
+        material_from_config(name, cfg["materials"])
+    SpringModel.from_config(cfg["springs"])
+    GreensSettings.from_config(cfg["greens"])
+    SolverSettings.from_config(cfg["solver"])

@@ -1,0 +1,82 @@
+"""Figure 4 of the paper: the road patch with its element grid and matching points."""
+
+from __future__ import annotations
+
+import logging
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+
+logger = logging.getLogger(__name__)
+
+__all__ = ["plot_patch"]
+
+
+def plot_patch(ds: xr.Dataset, path: str | Path, depth: float = 0.15e-3) -> Path:
+    """Plot the contact patch: heights (mm colour map), 1 mm element grid and matching points.
+
+    Matching points (each element's highest sample) within ``depth`` of the patch's highest peak
+    are drawn filled, the others hollow, so the figure also shows which elements are in contact
+    at an indentation of ``depth``.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        Surface dataset (variables height, z1, peak_x, peak_y; attrs element_size, surface).
+    path : path-like
+        Output PNG file; parent directories are created.
+    depth : float
+        Depth below the top used to mark matching points [m].
+
+    Returns
+    -------
+    pathlib.Path
+        The written file.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    x_mm = ds["x"].values * 1e3
+    y_mm = ds["y"].values * 1e3
+    c_mm = float(ds.attrs["element_size"]) * 1e3
+    step_mm = float(ds.attrs["scan_step"]) * 1e3
+    h_mm = ds["height"].values * 1e3
+    z1 = ds["z1"].values
+    top = z1.max()
+    near = z1 >= top - depth
+    ex, ey = z1.shape
+
+    fig, ax = plt.subplots(figsize=(7.2, 6.0), constrained_layout=True)
+    # Edges of the cell-centred samples.
+    xe = np.concatenate([x_mm - 0.5 * step_mm, [x_mm[-1] + 0.5 * step_mm]])
+    ye = np.concatenate([y_mm - 0.5 * step_mm, [y_mm[-1] + 0.5 * step_mm]])
+    mesh = ax.pcolormesh(xe, ye, h_mm.T, cmap="cividis", shading="flat", rasterized=True)
+    cbar = fig.colorbar(mesh, ax=ax)
+    cbar.set_label("road height z [mm]")
+    for i in range(ex + 1):
+        ax.axvline(i * c_mm, color="0.15", lw=0.35, alpha=0.5)
+    for j in range(ey + 1):
+        ax.axhline(j * c_mm, color="0.15", lw=0.35, alpha=0.5)
+    px = ds["peak_x"].values * 1e3
+    py = ds["peak_y"].values * 1e3
+    ax.scatter(px[near], py[near], s=14, c="red", edgecolors="black", linewidths=0.4,
+               label=f"matching point within {depth * 1e3:g} mm of the top ({near.mean():.0%})")
+    ax.scatter(px[~near], py[~near], s=14, facecolors="none", edgecolors="red", linewidths=0.8,
+               label="other matching points")
+    ax.set_xlim(xe[0], xe[-1])
+    ax.set_ylim(ye[0], ye[-1])
+    ax.set_aspect("equal")
+    ax.set_xlabel("x [mm]")
+    ax.set_ylabel("y [mm]")
+    name = ds.attrs.get("surface", "")
+    ax.set_title(f"Road patch {name}: {ex} x {ey} elements of {c_mm:g} mm")
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.09), ncol=1, fontsize=8, frameon=False)
+    fig.savefig(path, dpi=150)
+    plt.close(fig)
+    logger.info("wrote %s", path)
+    return path
