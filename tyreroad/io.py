@@ -112,12 +112,15 @@ def check_metadata(ds: xr.Dataset) -> None:
 def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
     """Yield a temporary path next to ``path``; rename it onto ``path`` only on success.
 
+    The temporary name keeps the suffix of ``path`` (writers such as matplotlib infer the format
+    from it).
+
     On any exception the temporary file is removed and ``path`` is left untouched
     (an existing file is neither overwritten nor deleted).
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=f".tmp{path.suffix}", dir=path.parent)
     os.close(fd)
     tmp_path = Path(tmp)
     try:

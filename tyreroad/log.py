@@ -43,4 +43,10 @@ def configure(log_path: str | Path | None = None, level: int = logging.INFO) -> 
         logger.addHandler(handler)
     logger.propagate = False
     logging.captureWarnings(True)
+
+    def _log_uncaught(exc_type, exc, tb):
+        # a failing job must say why in its log file, not only on the terminal
+        logger.error("job failed: %s: %s", exc_type.__name__, exc, exc_info=(exc_type, exc, tb))
+
+    sys.excepthook = _log_uncaught
     return logger
