@@ -1,0 +1,275 @@
+"""FFT offset convolution, history ring buffer and Newton-Krylov step solver against dense references."""
+
+import numpy as np
+import pytest
+
+from tyreroad import springs
+from tyreroad.convolution import (
+    BlockJacobiPreconditioner,
+    HistoryAccumulator,
+    KrylovConvergenceError,
+    OffsetConvolution,
+    _accumulate_complex,
+    _accumulate_real,
+    _combine,
+    _orthogonalize,
+    padded_shape,
+    solve_step_newton_krylov,
+)
+
+
+def _dense_matrices(g, nx, ny):
+    """G[lag, e, m] = g[e - m, lag] by an explicit double loop over element pairs (reference)."""
+    n_lag = g.shape[2]
+    mat = np.zeros((n_lag, nx * ny, nx * ny))
+    for ex in range(nx):
+        for ey in range(ny):
+            for mx in range(nx):
+                for my in range(ny):
+                    mat[:, ex * ny + ey, mx * ny + my] = g[ex - mx + nx - 1, ey - my + ny - 1, :]
+    return mat
+
+
+def _rel(a, b):
+    return np.max(np.abs(a - b)) / np.max(np.abs(b))
+
+
+@pytest.mark.parametrize("nx, ny, n_lag, even", [(8, 8, 32, False), (7, 11, 32, False), (7, 11, 32, True)])
+def test_apply_lag_equals_dense_sum(nx, ny, n_lag, even):
+    rng = np.random.default_rng(1)
+    # no symmetry: a transposed offset (e - m vs m - e) or swapped axes would show
+    g = rng.standard_normal((2 * nx - 1, 2 * ny - 1, n_lag)) * 1e-6
+    if even:  # real-spectrum path of layer-like tables
+        g = g + g[::-1] + g[:, ::-1] + g[::-1, ::-1]
+    forces = rng.uniform(0, 10, (nx, ny))
+    conv = OffsetConvolution(g, (nx, ny), workers=2)
+    assert conv.symmetric == even
+    dense = _dense_matrices(g, nx, ny)
+    for lag in (0, 1, 17, n_lag - 1):
+        ref = (dense[lag] @ forces.ravel()).reshape(nx, ny)
+        assert _rel(conv.apply_lag(forces, lag), ref) < 1e-12
+    # the smallest grid that avoids wrap-around is used: 2n - 1 rounded up to a fast length
+    px, py = conv.padded
+    assert 2 * nx - 1 <= px < 2 * (2 * nx - 1) and 2 * ny - 1 <= py < 2 * (2 * ny - 1)
+
+
+def test_padding_is_minimal_but_sufficient():
+    assert padded_shape((150, 200)) == (300, 400)
+    assert padded_shape((1, 1)) == (1, 1)
+    # a single isolated offset at the extreme corner must not wrap onto any other element
+    nx, ny = 5, 6
+    g = np.zeros((2 * nx - 1, 2 * ny - 1, 1))
+    g[-1, -1, 0] = 1.0  # dx = nx - 1, dy = ny - 1: only element (nx-1, ny-1) sees source (0, 0)
+    f = np.zeros((nx, ny))
+    f[0, 0] = 1.0
+    w = OffsetConvolution(g, (nx, ny)).apply_lag(f, 0)
+    expected = np.zeros((nx, ny))
+    expected[-1, -1] = 1.0
+    assert np.max(np.abs(w - expected)) < 1e-15
+
+
+def test_larger_centred_kernel_is_cropped():
+    rng = np.random.default_rng(2)
+    nx, ny = 4, 5
+    big = rng.standard_normal((2 * nx + 3, 2 * ny + 1, 3))
+    crop = big[2:-2, 1:-1]
+    f = rng.standard_normal((nx, ny))
+    a = OffsetConvolution(big, (nx, ny)).apply_lag(f, 2)
+    b = OffsetConvolution(crop, (nx, ny)).apply_lag(f, 2)
+    assert np.max(np.abs(a - b)) < 1e-14
+
+
+@pytest.mark.parametrize(
+    "nx, ny, n_lag, kind", [(8, 8, 32, "random"), (7, 11, 32, "random"), (7, 11, 32, "even"), (8, 8, 32, "nearly_even")]
+)
+def test_history_equals_dense_sum(nx, ny, n_lag, kind):
+    rng = np.random.default_rng(3)
+    g = rng.standard_normal((2 * nx - 1, 2 * ny - 1, n_lag)) * 1e-6
+    if kind != "random":  # even in dx and dy (to round-off), as the layer kernel
+        g = g + g[::-1] + g[:, ::-1] + g[::-1, ::-1]
+    if kind == "nearly_even":  # an odd part above round-off must keep the complex path
+        g[0, 3, 5] += 1e-10 * np.max(np.abs(g))
+    conv = OffsetConvolution(g, (nx, ny), workers=2)
+    assert conv.symmetric == (kind == "even")
+    acc = conv.history_accumulator()
+    assert np.all(acc.history() == 0.0)
+    n_steps = 45  # more than L - 1: the ring wraps around
+    f_hist = rng.uniform(0, 5, (n_steps, nx, ny))
+    dense = _dense_matrices(g, nx, ny)
+    worst = 0.0
+    for n in range(1, n_steps + 1):
+        acc.push(f_hist[n - 1])
+        ref = np.zeros(nx * ny)
+        for lag in range(1, min(n_lag - 1, n) + 1):
+            ref += dense[lag] @ f_hist[n - lag].ravel()
+        worst = max(worst, _rel(acc.history(), ref.reshape(nx, ny)))
+    assert worst < 1e-12
+
+
+def test_history_single_lag_is_zero():
+    rng = np.random.default_rng(4)
+    conv = OffsetConvolution(rng.standard_normal((5, 5, 1)), (3, 3))
+    acc = HistoryAccumulator(conv)
+    acc.push(np.ones((3, 3)))
+    acc.push(np.ones((3, 3)))
+    assert acc.steps_pushed == 2 and np.all(acc.history() == 0.0)
+
+
+def _accumulate_numpy(spectra, ring, newest, n_terms):
+    depth = spectra.shape[1]
+    out = np.zeros(spectra.shape[0], dtype=complex)
+    for j in range(n_terms):
+        out += spectra[:, j] * ring[:, (newest + j) % depth]
+    return out
+
+
+@pytest.mark.parametrize("newest, n_terms", [(0, 9), (3, 9), (8, 9), (5, 4), (7, 0)])
+def test_accumulate_kernels_equal_numpy(newest, n_terms):
+    rng = np.random.default_rng(5)
+    shape = (37, 9)
+    spectra = rng.standard_normal(shape) + 1j * rng.standard_normal(shape)
+    ring = rng.standard_normal(shape) + 1j * rng.standard_normal(shape)
+    out_re, out_im = np.empty(shape[0]), np.empty(shape[0])
+    _accumulate_complex(spectra.real.copy(), spectra.imag.copy(), ring.real.copy(), ring.imag.copy(),
+                        newest, n_terms, out_re, out_im)
+    ref = _accumulate_numpy(spectra, ring, newest, n_terms)
+    assert np.max(np.abs(out_re + 1j * out_im - ref)) <= 1e-13 * max(1.0, np.max(np.abs(ref)))
+    _accumulate_real(spectra.real.copy(), ring.real.copy(), ring.imag.copy(), newest, n_terms, out_re, out_im)
+    ref = _accumulate_numpy(spectra.real.astype(complex), ring, newest, n_terms)
+    assert np.max(np.abs(out_re + 1j * out_im - ref)) <= 1e-13 * max(1.0, np.max(np.abs(ref)))
+
+
+def test_gram_schmidt_kernels_equal_numpy():
+    rng = np.random.default_rng(9)
+    basis, _ = np.linalg.qr(rng.standard_normal((50, 6)))
+    basis = np.ascontiguousarray(basis.T)  # 6 orthonormal rows
+    w0 = rng.standard_normal(50)
+    w = w0.copy()
+    coef = np.empty(6)
+    _orthogonalize(basis, w, coef)
+    c1 = basis @ w0
+    w_ref = w0 - c1 @ basis
+    c2 = basis @ w_ref
+    w_ref -= c2 @ basis
+    assert np.max(np.abs(coef - (c1 + c2))) < 1e-14 and np.max(np.abs(w - w_ref)) < 1e-14
+    assert np.max(np.abs(basis @ w)) < 1e-14
+    out = np.empty(50)
+    _combine(c1, basis, out)
+    assert np.max(np.abs(out - c1 @ basis)) < 1e-14
+
+
+def test_block_preconditioner_inverts_tiles():
+    rng = np.random.default_rng(6)
+    nx, ny, b = 7, 11, 4
+    g = rng.standard_normal((2 * nx - 1, 2 * ny - 1, 1)) * 1e-5
+    k = rng.uniform(0, 2e5, (nx, ny))
+    k[rng.random((nx, ny)) < 0.3] = 0.0
+    pre = BlockJacobiPreconditioner(OffsetConvolution(g, (nx, ny)), b)
+    pre.update(k)
+    r = rng.standard_normal((nx, ny))
+    z = pre.solve(r)
+    jac = np.eye(nx * ny) + _dense_matrices(g, nx, ny)[0] * k.ravel()[None, :]
+    # dense block of J on every (clipped) tile, solved independently
+    ref = np.zeros((nx, ny))
+    for tx in range(0, nx, b):
+        for ty in range(0, ny, b):
+            ix, iy = np.meshgrid(np.arange(tx, min(tx + b, nx)), np.arange(ty, min(ty + b, ny)), indexing="ij")
+            idx = (ix * ny + iy).ravel()
+            ref.ravel()[idx] = np.linalg.solve(jac[np.ix_(idx, idx)], r.ravel()[idx])
+    assert _rel(z, ref) < 1e-12
+    pre1 = BlockJacobiPreconditioner(OffsetConvolution(g, (nx, ny)), 1)
+    pre1.update(k)
+    assert _rel(pre1.solve(r), r / (1.0 + g[nx - 1, ny - 1, 0] * k)) < 1e-14
+
+
+# --- Newton-Krylov against a dense Newton solve ----------------------------------------------
+def _problem(nx=12, ny=12, seed=7):
+    """Rough patch on an exponentially coupled lag-0 kernel with nonlinear table springs."""
+    rng = np.random.default_rng(seed)
+    dx = np.arange(-(nx - 1), nx)[:, None]
+    dy = np.arange(-(ny - 1), ny)[None, :]
+    r = np.hypot(dx, dy)
+    # exp(-r/l) is positive definite in 2-D; the amplitude makes g0 k ~ 0.3 ... 3 (strong coupling)
+    g0 = 2e-5 * np.exp(-r / 2.5)
+    g = np.stack([g0, 0.3 * g0], axis=-1)
+    step = 1e-6
+    zeta_grid = np.arange(200) * step
+    k0 = rng.uniform(1e4, 5e4, (nx, ny, 1))
+    k_tab = k0 * (1.0 + 3.0 * np.sqrt(zeta_grid / zeta_grid[-1]))  # kinks on every grid point
+    f_tab = np.concatenate([np.zeros((nx, ny, 1)), np.cumsum(0.5 * step * (k_tab[..., 1:] + k_tab[..., :-1]), axis=-1)], -1)
+
+    def spring_eval(z):
+        return springs.evaluate(np.reshape(z, (nx, ny)), step, k_tab, f_tab)
+
+    z1 = -rng.uniform(0, 2e-4, (nx, ny))
+    rhs = z1 + 2e-4  # indentation 0.2 mm: about a third of the elements in contact
+    return g, spring_eval, rhs
+
+
+def _dense_newton(g0mat, spring_eval, rhs):
+    zeta = rhs.ravel().copy()
+    b = rhs.ravel()
+    for _ in range(100):
+        f, k = (a.ravel() for a in spring_eval(zeta))
+        r = zeta - b + g0mat @ f
+        if np.max(np.abs(r)) < 1e-19:
+            break
+        delta = np.linalg.solve(np.eye(b.size) + g0mat * k[None, :], -r)
+        lam = 1.0
+        while lam > 1e-6:
+            f2, _ = spring_eval(zeta + lam * delta)
+            if np.linalg.norm(zeta + lam * delta - b + g0mat @ f2.ravel()) < np.linalg.norm(r):
+                break
+            lam *= 0.5
+        zeta = zeta + lam * delta
+    return zeta.reshape(rhs.shape), np.max(np.abs(r))
+
+
+@pytest.mark.parametrize("block", [1, 4])
+def test_newton_krylov_equals_dense_newton(block):
+    nx = ny = 12
+    g, spring_eval, rhs = _problem(nx, ny)
+    conv = OffsetConvolution(g, (nx, ny))
+    g0mat = _dense_matrices(g, nx, ny)[0]
+    ref, ref_res = _dense_newton(g0mat, spring_eval, rhs)
+    assert ref_res < 1e-18
+    active = np.mean(ref > 0)
+    assert 0.25 < active < 0.9  # a genuine contact problem, not all-in or all-out
+
+    sol = solve_step_newton_krylov(rhs, rhs, spring_eval, conv, tol=1e-12, max_iter=50, block=block)
+    f, _ = spring_eval(sol.zeta)
+    true_res = np.max(np.abs(sol.zeta.ravel() - rhs.ravel() + g0mat @ f.ravel()))
+    assert sol.residual <= 1e-12 and true_res <= 1e-12
+    assert abs(true_res - sol.residual) < 1e-15
+    assert _rel(sol.zeta, ref) < 1e-8  # |R| <= 1e-12 m on zeta ~ 1e-4 m
+    assert sol.newton_iterations >= 2 and sol.krylov_iterations >= sol.newton_iterations
+    assert _rel(sol.force, spring_eval(sol.zeta)[0].reshape(nx, ny)) == 0.0
+
+    tight = solve_step_newton_krylov(rhs, rhs, spring_eval, conv, tol=1e-15, max_iter=50, block=block)
+    assert _rel(tight.zeta, ref) < 1e-10
+
+
+def test_newton_krylov_warm_start_and_failure():
+    nx = ny = 12
+    g, spring_eval, rhs = _problem(nx, ny, seed=8)
+    conv = OffsetConvolution(g, (nx, ny))
+    sol = solve_step_newton_krylov(rhs, rhs, spring_eval, conv)
+    again = solve_step_newton_krylov(rhs, sol.zeta, spring_eval, conv)
+    assert again.newton_iterations == 0 and again.krylov_iterations == 0
+    with pytest.raises(KrylovConvergenceError, match="did not converge in 1 iterations"):
+        solve_step_newton_krylov(rhs, np.zeros_like(rhs), spring_eval, conv, max_iter=1)
+
+
+def test_bad_input_is_named():
+    g = np.zeros((5, 5, 2))
+    with pytest.raises(ValueError, match="offset axis 0"):
+        OffsetConvolution(g, (4, 3))
+    conv = OffsetConvolution(g, (3, 3))
+    with pytest.raises(ValueError, match="lag"):
+        conv.apply_lag(np.zeros((3, 3)), 2)
+    with pytest.raises(ValueError, match="forces"):
+        conv.apply_lag(np.zeros((3, 4)), 0)
+    with pytest.raises(ValueError, match="workers"):
+        OffsetConvolution(g, (3, 3), workers=0)
+    with pytest.raises(ValueError, match="NaN"):
+        OffsetConvolution(np.full((5, 5, 1), np.nan), (3, 3))

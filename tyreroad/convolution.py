@@ -1,0 +1,726 @@
+"""FFT offset convolution, frequency-domain history and a matrix-free Newton-Krylov step solver.
+
+The contact solver (SPEC 6) needs, at every time step n, two sums over the offset table
+g[dx, dy, lag] of the layer's element Green's functions (seed Eq. 3-4):
+
+    (G_l F)_e = sum_m g[e - m, l] F_m                         (one lag, e, m on the nx x ny patch)
+    h_e[n]    = sum_{l=1}^{L-1} (G_l F[n - l])_e               (history of the past forces)
+
+and it solves R(zeta) = zeta - b + G_0 F(zeta) = 0 with b = z1 - z2[n] - h[n]. Dense matrices
+cost M^2 per lag and step and a dense Jacobian M^3 (M = nx ny); for tyre footprints of 150 x 200
+elements with L = 256 lags neither fits. Because g depends only on the offset e - m, every lag is
+a 2-D convolution, done here by FFT.
+
+Linear convolution on a padded grid
+-----------------------------------
+Only offsets |dx| <= nx - 1, |dy| <= ny - 1 occur between two elements of the patch. Place the
+table on a periodic grid of P_x x P_y points at index (dx mod P_x, dy mod P_y) and the forces at
+[0, nx) x [0, ny), zero elsewhere. The circular convolution at an output element e reads the
+table at (e - m) mod P for every source m; the offsets -(n-1) ... n-1 map to 2n - 1 distinct
+residues whenever P >= 2n - 1, so every product is exactly g[e - m] F_m and no periodic image
+enters: on the patch the circular convolution *equals* the linear one (outputs outside the
+patch, which would wrap, are discarded). Hence P = next_fast_len(2n - 1) per axis, not the
+3n - 2 of a general full linear convolution. The error is FFT round-off only (~1e-16 relative
+to sum |g| |F|).
+
+History accumulation
+--------------------
+The spectra G^_l of all lags are precomputed; the spectra F^[s] of the last L - 1 force fields
+live in a ring buffer, so h[n] = irfft2( sum_{l=1}^{L-1} G^_l F^[n - l] ) costs one rfft2 per
+step (of the new force), one irfft2 and a multiply-add over (bins x L) complex numbers (the hot
+loop, a numba kernel parallel over frequency bins), instead of M^2 L. Everything is double
+precision: the FFT path must reproduce the dense sum to ~1e-13 relative, which single precision
+cannot. A table even in dx and in dy (the layer kernel is, SPEC 5) has real spectra, which halves
+the kernel's memory and the hot loop's traffic; other tables keep complex spectra. Memory for
+150 x 200 elements and L = 256: kernel spectra 119 MiB (real) or 238 MiB (complex), ring 235 MiB.
+
+Newton-Krylov step solver
+-------------------------
+The Jacobian J = I + G_0 diag(k) is never formed: J v = v + G_0 (k v) is one lag-0 FFT
+convolution. Each Newton correction is solved by right-preconditioned GMRES (the residual it
+minimises is the true linear residual) to an inexact-Newton forcing tolerance (Eisenstat &
+Walker 1996, choice 2) that never asks for more than a fraction of the final tolerance, with
+step halving when the residual grows. The preconditioner is block Jacobi on square tiles of
+elements: the exact inverse of J restricted to each tile (the lag-0 kernel is strongly local in
+the dynamic case, so the tiles capture most of the coupling). Tiles of 1 element are plain
+Jacobi, diag(1 + g[0, 0, 0] k).
+
+References
+----------
+Winroth, J., Andersson, P. B. U., & Kropp, W. (2014). Importance of tread inertia and damping on
+the tyre/road contact stiffness. J. Sound Vib. 333(21), 5378-5385. doi:10.1016/j.jsv.2014.05.020
+Eisenstat, S. C., & Walker, H. F. (1996). Choosing the forcing terms in an inexact Newton method.
+SIAM J. Sci. Comput. 17(1), 16-32. doi:10.1137/0917003
+Saad, Y., & Schultz, M. H. (1986). GMRES: A generalized minimal residual algorithm for solving
+nonsymmetric linear systems. SIAM J. Sci. Stat. Comput. 7(3), 856-869. doi:10.1137/0907058
+Knoll, D. A., & Keyes, D. E. (2004). Jacobian-free Newton-Krylov methods: a survey of approaches
+and applications. J. Comput. Phys. 193(2), 357-397. doi:10.1016/j.jcp.2003.08.010
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import numbers
+from dataclasses import dataclass
+from typing import Callable
+
+import numba
+import numpy as np
+import scipy.fft
+from numba import njit, prange
+from scipy.linalg import solve_triangular
+
+logger = logging.getLogger(__name__)
+
+__all__ = [
+    "BlockJacobiPreconditioner",
+    "HistoryAccumulator",
+    "KrylovConvergenceError",
+    "OffsetConvolution",
+    "StepSolution",
+    "padded_shape",
+    "solve_step_newton_krylov",
+]
+
+#: Lags transformed per batch when the kernel spectra are built (bounds the temporary memory).
+_LAG_CHUNK = 16
+#: Largest odd part of g (relative to max|g|) still treated as an even table.
+_SYMMETRY_TOL = 1e-14
+#: Step halvings tried before a Newton step is taken in full.
+_MAX_HALVINGS = 30
+
+
+class KrylovConvergenceError(RuntimeError):
+    """A Newton-Krylov step solve did not reach its tolerance.
+
+    Attributes
+    ----------
+    residual : float
+        Final max|R| [m].
+    iterations : int
+        Newton iterations done.
+    """
+
+    def __init__(self, message: str, residual: float, iterations: int):
+        super().__init__(message)
+        self.residual = residual
+        self.iterations = iterations
+
+
+def _positive_int(name: str, value) -> int:
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 1:
+        raise ValueError(f"{name}: expected an integer >= 1, got {value!r}")
+    return int(value)
+
+
+def padded_shape(shape) -> tuple[int, int]:
+    """FFT grid on which the circular convolution equals the linear one on the patch.
+
+    Parameters
+    ----------
+    shape : tuple of int
+        Patch size (nx, ny) [elements].
+
+    Returns
+    -------
+    tuple of int
+        (P_x, P_y) = next_fast_len(2 n - 1, real=True) per axis: offsets -(n-1) ... n-1 need
+        2 n - 1 distinct residues modulo P (see the module docstring).
+    """
+    if len(shape) != 2:
+        raise ValueError(f"shape: expected (nx, ny), got {shape!r}")
+    nx, ny = (_positive_int(f"shape[{i}]", v) for i, v in enumerate(shape))
+    return (scipy.fft.next_fast_len(2 * nx - 1, real=True), scipy.fft.next_fast_len(2 * ny - 1, real=True))
+
+
+def _check_kernel(kernel, nx: int, ny: int) -> np.ndarray:
+    """Validate g[dx, dy, lag]; a larger centred (odd) table is cropped to the patch offsets."""
+    g = np.asarray(kernel, dtype=float)
+    if g.ndim != 3 or g.shape[2] < 1:
+        raise ValueError(f"kernel: expected g[dx, dy, lag] with 3 dimensions and >= 1 lag, got shape {g.shape}")
+    need = (2 * nx - 1, 2 * ny - 1)
+    for axis in (0, 1):
+        if g.shape[axis] % 2 != 1 or g.shape[axis] < need[axis]:
+            raise ValueError(
+                f"kernel: offset axis {axis} must have odd length (offsets -(n-1)..n-1) covering the "
+                f"patch shape {(nx, ny)}, need >= {need[axis]}, got {g.shape[axis]}"
+            )
+    cx, cy = (g.shape[0] - 1) // 2, (g.shape[1] - 1) // 2
+    g = g[cx - (nx - 1) : cx + nx, cy - (ny - 1) : cy + ny, :]
+    if not np.all(np.isfinite(g)):
+        raise ValueError("kernel: contains NaN or infinite values")
+    return g
+
+
+class OffsetConvolution:
+    """Linear 2-D convolution of force fields with every lag of an offset table, by FFT.
+
+    Parameters
+    ----------
+    kernel : array_like
+        g[dx, dy, lag] [m/N], shape (2 nx - 1, 2 ny - 1, L), index dx + nx - 1 (a larger centred
+        table with odd offset axes is cropped to the patch).
+    shape : tuple of int
+        Patch size (nx, ny) [elements].
+    workers : int
+        Threads for scipy.fft and for the numba accumulation kernel.
+
+    Attributes
+    ----------
+    shape : tuple of int
+        (nx, ny).
+    n_lags : int
+        L.
+    padded : tuple of int
+        FFT grid (P_x, P_y), see :func:`padded_shape`.
+    lag0 : numpy.ndarray
+        g[:, :, 0] [m/N] (used by the block preconditioner).
+    symmetric : bool
+        Lags 1 ... L-1 are even in dx and dy (to 1e-14 of their largest value): their spectra
+        are stored real.
+    """
+
+    def __init__(self, kernel, shape, workers: int = 1):
+        if len(shape) != 2:
+            raise ValueError(f"shape: expected (nx, ny), got {shape!r}")
+        nx, ny = (_positive_int(f"shape[{i}]", v) for i, v in enumerate(shape))
+        self.workers = _positive_int("workers", workers)
+        g = _check_kernel(kernel, nx, ny)
+        self.shape = (nx, ny)
+        self.n_lags = g.shape[2]
+        self.padded = padded_shape(self.shape)
+        px, py = self.padded
+        self._half = (px, py // 2 + 1)
+        self.n_bins = px * (py // 2 + 1)
+        self.lag0 = np.ascontiguousarray(g[:, :, 0])
+        self._spec0 = self._spectra(g[:, :, 0:1])[:, 0].reshape(self._half)
+        # A table even in dx and in dy (SPEC 5: the layer kernel is) stays even on the periodic
+        # grid, so its spectra are real: half the memory traffic of the hot loop. Tables even to
+        # round-off (_SYMMETRY_TOL of max|g|) use the real spectra of their even part, which
+        # moves h by at most that fraction; any other table keeps complex spectra.
+        self.symmetric = False
+        if self.n_lags > 1:
+            gh = g[:, :, 1:]
+            odd = max(float(np.max(np.abs(gh - gh[::-1]))), float(np.max(np.abs(gh - gh[:, ::-1]))))
+            self.symmetric = bool(odd <= _SYMMETRY_TOL * float(np.max(np.abs(gh))))
+        depth = self.n_lags - 1
+        # bin-major (bins, lag - 1): the accumulation streams one contiguous row per bin;
+        # real and imaginary parts in separate arrays so the loop vectorises
+        self._hist_re = np.empty((self.n_bins, depth))
+        self._hist_im = np.empty((self.n_bins, 0 if self.symmetric else depth))
+        for l0 in range(1, self.n_lags, _LAG_CHUNK):
+            l1 = min(l0 + _LAG_CHUNK, self.n_lags)
+            spec = self._spectra(g[:, :, l0:l1])
+            self._hist_re[:, l0 - 1 : l1 - 1] = spec.real
+            if not self.symmetric:
+                self._hist_im[:, l0 - 1 : l1 - 1] = spec.imag
+        logger.debug(
+            "OffsetConvolution: patch %s, FFT grid %s, %d lags, symmetric %s, spectra %.1f MB",
+            self.shape, self.padded, self.n_lags, self.symmetric, self.nbytes / 1e6,
+        )
+
+    def _spectra(self, g_chunk: np.ndarray) -> np.ndarray:
+        """rfft2 of lags placed at (dx mod P_x, dy mod P_y); returns (bins, lags)."""
+        nx, ny = self.shape
+        px, py = self.padded
+        buf = np.zeros((px, py, g_chunk.shape[2]))
+        buf[: 2 * nx - 1, : 2 * ny - 1] = g_chunk
+        buf = np.roll(buf, (-(nx - 1), -(ny - 1)), axis=(0, 1))
+        spec = scipy.fft.rfft2(buf, axes=(0, 1), workers=self.workers)
+        return spec.reshape(self.n_bins, g_chunk.shape[2])
+
+    @property
+    def nbytes(self) -> int:
+        """Memory held by the kernel spectra [B]."""
+        return self._spec0.nbytes + self._hist_re.nbytes + self._hist_im.nbytes + self.lag0.nbytes
+
+    def _check_field(self, forces, name: str = "forces") -> np.ndarray:
+        f = np.asarray(forces, dtype=float)
+        if f.shape != self.shape:
+            if f.size == self.shape[0] * self.shape[1] and f.ndim == 1:
+                return f.reshape(self.shape)
+            raise ValueError(f"{name}: expected shape {self.shape} (or flat {self.shape[0] * self.shape[1]}), got {f.shape}")
+        return f
+
+    def spectrum(self, forces) -> np.ndarray:
+        """Spectrum of a zero-padded force field, shape (P_x, P_y // 2 + 1), complex."""
+        f = self._check_field(forces)
+        return scipy.fft.rfft2(f, s=self.padded, workers=self.workers)
+
+    def _from_spectrum(self, spec: np.ndarray) -> np.ndarray:
+        nx, ny = self.shape
+        return scipy.fft.irfft2(spec, s=self.padded, workers=self.workers)[:nx, :ny]
+
+    def apply_lag(self, forces, lag: int) -> np.ndarray:
+        """One lag of the convolution: w_e = sum_m g[e - m, lag] F_m.
+
+        Parameters
+        ----------
+        forces : array_like
+            F [N], shape (nx, ny) (or flat nx ny).
+        lag : int
+            0 <= lag < L.
+
+        Returns
+        -------
+        numpy.ndarray
+            [m], shape (nx, ny).
+        """
+        if isinstance(lag, bool) or not isinstance(lag, numbers.Integral) or not 0 <= lag < self.n_lags:
+            raise ValueError(f"lag: expected an integer in [0, {self.n_lags - 1}], got {lag!r}")
+        spec = self.spectrum(forces)
+        if lag == 0:
+            spec *= self._spec0
+        else:
+            gl = self._hist_re[:, lag - 1] if self.symmetric else self._hist_re[:, lag - 1] + 1j * self._hist_im[:, lag - 1]
+            spec *= gl.reshape(self._half)
+        return self._from_spectrum(spec)
+
+    def history_accumulator(self) -> "HistoryAccumulator":
+        """A fresh :class:`HistoryAccumulator` (no past forces) on this kernel."""
+        return HistoryAccumulator(self)
+
+
+@njit(cache=True, parallel=True, fastmath=True)
+def _accumulate_real(g_re, f_re, f_im, newest, n_terms, out_re, out_im):  # pragma: no cover - numba
+    """out[k] = sum_{j < n_terms} g[k, j] f[k, (newest + j) mod D] for real kernel spectra g.
+
+    ``g[k, j]`` is the kernel spectrum of lag j + 1; the ring is written backwards, so the force
+    of lag j + 1 sits j slots after the newest one and all rows stream forwards. fastmath only
+    reorders the sums (inputs are validated finite).
+    """
+    n_bins, depth = g_re.shape
+    first = min(n_terms, depth - newest)
+    for k in prange(n_bins):
+        a = 0.0
+        b = 0.0
+        for j in range(first):
+            a += g_re[k, j] * f_re[k, newest + j]
+            b += g_re[k, j] * f_im[k, newest + j]
+        for j in range(first, n_terms):
+            a += g_re[k, j] * f_re[k, newest + j - depth]
+            b += g_re[k, j] * f_im[k, newest + j - depth]
+        out_re[k] = a
+        out_im[k] = b
+
+
+@njit(cache=True, parallel=True, fastmath=True)
+def _accumulate_complex(g_re, g_im, f_re, f_im, newest, n_terms, out_re, out_im):  # pragma: no cover - numba
+    """As :func:`_accumulate_real` for complex kernel spectra g_re + i g_im."""
+    n_bins, depth = g_re.shape
+    first = min(n_terms, depth - newest)
+    for k in prange(n_bins):
+        a = 0.0
+        b = 0.0
+        for j in range(first):
+            s = newest + j
+            a += g_re[k, j] * f_re[k, s] - g_im[k, j] * f_im[k, s]
+            b += g_re[k, j] * f_im[k, s] + g_im[k, j] * f_re[k, s]
+        for j in range(first, n_terms):
+            s = newest + j - depth
+            a += g_re[k, j] * f_re[k, s] - g_im[k, j] * f_im[k, s]
+            b += g_re[k, j] * f_im[k, s] + g_im[k, j] * f_re[k, s]
+        out_re[k] = a
+        out_im[k] = b
+
+
+class HistoryAccumulator:
+    """Ring buffer of past force spectra and the history term h[n] of the contact solver.
+
+    Usage per time step n: ``h = acc.history()`` (sum over lags 1 ... L-1 of the forces pushed
+    so far: forces before the first push are zero), solve the step, ``acc.push(F[n])``.
+
+    Parameters
+    ----------
+    conv : OffsetConvolution
+        Kernel spectra and FFT settings.
+    """
+
+    def __init__(self, conv: OffsetConvolution):
+        if not isinstance(conv, OffsetConvolution):
+            raise TypeError(f"conv: expected OffsetConvolution, got {type(conv).__name__}")
+        self.conv = conv
+        self._depth = conv.n_lags - 1
+        self._ring_re = np.zeros((conv.n_bins, self._depth))
+        self._ring_im = np.zeros((conv.n_bins, self._depth))
+        self._newest = 0
+        self.steps_pushed = 0
+        self._out_re = np.empty(conv.n_bins)
+        self._out_im = np.empty(conv.n_bins)
+
+    @property
+    def nbytes(self) -> int:
+        """Memory of the ring buffer [B]."""
+        return self._ring_re.nbytes + self._ring_im.nbytes
+
+    def push(self, forces) -> None:
+        """Append the force field F[n] [N], shape (nx, ny), of the step just solved."""
+        f = self.conv._check_field(forces)
+        if not np.all(np.isfinite(f)):
+            raise ValueError("HistoryAccumulator.push: forces contain NaN or infinite values")
+        if self._depth > 0:
+            spec = self.conv.spectrum(f).ravel()
+            self._newest = (self._newest - 1) % self._depth
+            self._ring_re[:, self._newest] = spec.real
+            self._ring_im[:, self._newest] = spec.imag
+        self.steps_pushed += 1
+
+    def history(self) -> np.ndarray:
+        """h[n] = sum_{l=1}^{L-1} sum_m g[e - m, l] F_m[n - l] [m], shape (nx, ny), n = steps pushed."""
+        n_terms = min(self.steps_pushed, self._depth)
+        if n_terms == 0:
+            return np.zeros(self.conv.shape)
+        conv = self.conv
+        numba.set_num_threads(min(conv.workers, numba.config.NUMBA_NUM_THREADS))
+        args = (self._ring_re, self._ring_im, self._newest, n_terms, self._out_re, self._out_im)
+        if conv.symmetric:
+            _accumulate_real(conv._hist_re, *args)
+        else:
+            _accumulate_complex(conv._hist_re, conv._hist_im, *args)
+        spec = (self._out_re + 1j * self._out_im).reshape(conv._half)
+        return conv._from_spectrum(spec)
+
+
+class BlockJacobiPreconditioner:
+    """Exact inverse of J = I + G_0 diag(k) restricted to square tiles of elements.
+
+    The patch is cut into tiles of b x b elements (the last row/column of tiles padded with
+    k = 0 elements, whose Jacobian columns are unit vectors, so the padding leaves the real
+    block unchanged). All tiles share one lag-0 block G_tile[p, q] = g[x_p - x_q, y_p - y_q, 0]
+    by translation invariance; only k differs, so an update is one batched inverse.
+
+    Parameters
+    ----------
+    conv : OffsetConvolution
+        Supplies g[:, :, 0] and the patch shape.
+    block : int
+        Tile edge b [elements]; 1 is Jacobi diag(1 + g[0, 0, 0] k). Clipped to the patch.
+    """
+
+    def __init__(self, conv: OffsetConvolution, block: int = 4):
+        self.block = _positive_int("block", block)
+        nx, ny = conv.shape
+        self.bx, self.by = min(self.block, nx), min(self.block, ny)
+        self.tiles = (-(-nx // self.bx), -(-ny // self.by))
+        self.shape = conv.shape
+        px, py = np.divmod(np.arange(self.bx * self.by), self.by)
+        g0 = conv.lag0
+        self._g_tile = g0[px[:, None] - px[None, :] + nx - 1, py[:, None] - py[None, :] + ny - 1]
+        self._inv = None
+
+    def _to_tiles(self, field: np.ndarray) -> np.ndarray:
+        nx, ny = self.shape
+        tx, ty = self.tiles
+        pad = np.zeros((tx * self.bx, ty * self.by))
+        pad[:nx, :ny] = field.reshape(nx, ny)
+        return pad.reshape(tx, self.bx, ty, self.by).transpose(0, 2, 1, 3).reshape(tx * ty, self.bx * self.by)
+
+    def _from_tiles(self, tiles: np.ndarray) -> np.ndarray:
+        nx, ny = self.shape
+        tx, ty = self.tiles
+        full = tiles.reshape(tx, ty, self.bx, self.by).transpose(0, 2, 1, 3).reshape(tx * self.bx, ty * self.by)
+        return full[:nx, :ny]
+
+    def update(self, stiffness) -> None:
+        """Factorise the tile blocks for spring stiffnesses k [N/m], shape (nx, ny)."""
+        k = self._to_tiles(np.asarray(stiffness, dtype=float))
+        if self.bx * self.by == 1:
+            self._inv = 1.0 / (1.0 + self._g_tile[0, 0] * k)
+            return
+        nb = self.bx * self.by
+        # tiles without contact have J = I there: invert only the loaded ones
+        loaded = np.flatnonzero(np.any(k != 0.0, axis=1))
+        inv = np.zeros((k.shape[0], nb, nb))
+        idx = np.arange(nb)
+        inv[:, idx, idx] = 1.0
+        if loaded.size:
+            a = self._g_tile[None, :, :] * k[loaded, None, :]
+            a[:, idx, idx] += 1.0
+            inv[loaded] = np.linalg.inv(a)
+        self._inv = inv
+
+    def solve(self, residual) -> np.ndarray:
+        """Apply the tile inverses to a field [m], shape (nx, ny) or flat; returns (nx, ny)."""
+        if self._inv is None:
+            raise RuntimeError("BlockJacobiPreconditioner.solve called before update(stiffness)")
+        r = self._to_tiles(np.asarray(residual, dtype=float))
+        if self._inv.ndim == 2:
+            return self._from_tiles(self._inv * r)
+        return self._from_tiles(np.matmul(self._inv, r[:, :, None])[:, :, 0])
+
+
+def _norm(x: np.ndarray) -> float:
+    """Euclidean norm without BLAS (see :func:`_orthogonalize`)."""
+    x = x.ravel()
+    return math.sqrt(float(np.einsum("i,i->", x, x)))
+
+
+@njit(cache=True)
+def _orthogonalize(basis, w, coef):  # pragma: no cover - numba
+    """Classical Gram-Schmidt applied twice: w -= V^T (V w), coef = the summed projections.
+
+    Serial loops on purpose: the equivalent BLAS-2 calls on thin matrices stalled for
+    milliseconds in multi-threaded OpenBLAS on a busy machine (measured).
+    """
+    m, n = basis.shape
+    proj = np.empty(m)
+    for i in range(m):
+        coef[i] = 0.0
+    for _ in range(2):
+        for i in range(m):
+            s = 0.0
+            for p in range(n):
+                s += basis[i, p] * w[p]
+            proj[i] = s
+        for i in range(m):
+            c = proj[i]
+            for p in range(n):
+                w[p] -= c * basis[i, p]
+            coef[i] += c
+
+
+@njit(cache=True)
+def _combine(coef, basis, out):  # pragma: no cover - numba
+    """out = V^T coef (serial, see :func:`_orthogonalize`)."""
+    m, n = basis.shape
+    for p in range(n):
+        out[p] = 0.0
+    for i in range(m):
+        c = coef[i]
+        for p in range(n):
+            out[p] += c * basis[i, p]
+
+
+def _gmres(matvec, psolve, b: np.ndarray, atol: float, restart: int, max_iter: int):
+    """Right-preconditioned restarted GMRES from x0 = 0 (Saad & Schultz 1986).
+
+    Minimises the true residual ||b - A x||_2 over x = M^-1 V y, stops when it is <= atol or
+    after ``max_iter`` matrix-vector products. Classical Gram-Schmidt with one
+    re-orthogonalisation (as accurate as modified Gram-Schmidt, but BLAS-2). Returns
+    (x, products, ||b - A x||_2), the last norm recomputed from the true residual.
+    """
+    n = b.size
+    x = np.zeros(n)
+    r = b.copy()
+    beta = _norm(r)
+    done = 0
+    while beta > atol and done < max_iter:
+        m = min(restart, max_iter - done)
+        v = np.empty((m + 1, n))
+        h = np.zeros((m + 1, m))
+        cs = np.zeros(m)
+        sn = np.zeros(m)
+        gvec = np.zeros(m + 1)
+        v[0] = r / beta
+        gvec[0] = beta
+        j_used = 0
+        for j in range(m):
+            w = matvec(psolve(v[j]))
+            done += 1
+            coef = np.empty(j + 1)
+            _orthogonalize(v[: j + 1], w, coef)
+            h[: j + 1, j] = coef
+            h_next = _norm(w)
+            h[j + 1, j] = h_next
+            if h_next > 0.0:
+                v[j + 1] = w / h_next
+            for i in range(j):
+                hi = cs[i] * h[i, j] + sn[i] * h[i + 1, j]
+                h[i + 1, j] = -sn[i] * h[i, j] + cs[i] * h[i + 1, j]
+                h[i, j] = hi
+            rho = math.hypot(h[j, j], h[j + 1, j])
+            cs[j], sn[j] = h[j, j] / rho, h[j + 1, j] / rho
+            h[j, j] = rho
+            h[j + 1, j] = 0.0
+            gvec[j + 1] = -sn[j] * gvec[j]
+            gvec[j] = cs[j] * gvec[j]
+            j_used = j + 1
+            if abs(gvec[j + 1]) <= atol or h_next == 0.0:
+                break
+        y = solve_triangular(h[:j_used, :j_used], gvec[:j_used])
+        comb = np.empty(n)
+        _combine(y, v[:j_used], comb)
+        x += psolve(comb)
+        r = b - matvec(x)
+        beta_new = _norm(r)
+        if beta_new >= beta:
+            # stagnation (breakdown or loss of orthogonality): restarting cannot help
+            beta = beta_new
+            break
+        beta = beta_new
+    return x, done, beta
+
+
+@dataclass(frozen=True)
+class StepSolution:
+    """Result of one Newton-Krylov step solve.
+
+    Attributes
+    ----------
+    zeta : numpy.ndarray
+        Spring compressions [m], shape (nx, ny).
+    force, stiffness : numpy.ndarray
+        F(zeta) [N] and k(zeta) [N/m] from the spring evaluator, shape (nx, ny).
+    newton_iterations : int
+        Newton corrections taken.
+    krylov_iterations : int
+        GMRES matrix-vector products, all Newton iterations together.
+    residual : float
+        Final max|R| [m].
+    """
+
+    zeta: np.ndarray
+    force: np.ndarray
+    stiffness: np.ndarray
+    newton_iterations: int
+    krylov_iterations: int
+    residual: float
+
+
+def solve_step_newton_krylov(
+    rhs,
+    zeta0,
+    spring_eval: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]],
+    conv: OffsetConvolution,
+    tol: float = 1e-12,
+    max_iter: int = 50,
+    *,
+    preconditioner: BlockJacobiPreconditioner | None = None,
+    block: int = 4,
+    eta_max: float = 0.1,
+    krylov_restart: int = 60,
+    krylov_max: int = 600,
+    refresh_after: int = 8,
+) -> StepSolution:
+    """Solve R(zeta) = zeta - rhs + G_0 F(zeta) = 0 matrix-free (inexact Newton + GMRES).
+
+    Parameters
+    ----------
+    rhs : array_like
+        b = z1 - z2[n] - h[n] [m], shape (nx, ny) (or flat).
+    zeta0 : array_like
+        Start value [m] (warm start from the previous step), same shape.
+    spring_eval : callable
+        zeta -> (F [N], k [N/m]) for every element (INTERFACES.md contract: zero for
+        zeta <= 0, k = dF/dzeta); called with an (nx, ny) array, may return (nx, ny) or flat.
+    conv : OffsetConvolution
+        Kernel; lag 0 is G_0.
+    tol : float
+        Convergence on max|R| [m] (config ``solver.tolerance``).
+    max_iter : int
+        Newton iteration limit (config ``solver.max_iterations``).
+    preconditioner : BlockJacobiPreconditioner, optional
+        Reused across steps if given; else one with tiles of ``block`` elements is made.
+    block : int
+        Tile edge [elements] of the block-Jacobi preconditioner (1 = Jacobi).
+    eta_max : float
+        Largest inexact-Newton forcing term (relative GMRES tolerance), 0 < eta_max < 1.
+    krylov_restart, krylov_max : int
+        GMRES restart length and limit on matrix-vector products per Newton iteration.
+    refresh_after : int
+        The preconditioner is factorised for the current k at the first Newton iteration and
+        again only after a GMRES solve that needed more than this many products (0: every
+        iteration). k changes little between Newton iterations of a warm-started step, and the
+        preconditioner only steers GMRES: the Jacobian products always use the current k.
+
+    Returns
+    -------
+    StepSolution
+
+    Raises
+    ------
+    KrylovConvergenceError
+        If max|R| > tol after ``max_iter`` Newton iterations (the caller adds step and d).
+
+    Notes
+    -----
+    The GMRES target for the correction delta of J delta = -R is
+    ||J delta + R||_2 <= max(eta_k ||R||_2, tol / 4): eta_k follows Eisenstat-Walker choice 2
+    (gamma = 0.9, exponent 2, safeguarded, capped at ``eta_max``); the absolute floor tol / 4
+    bounds the linear error's max-norm by tol / 4, so the final Newton residual can reach tol
+    without over-solving earlier iterations. A trial step is accepted when ||R||_2 decreases
+    (Armijo, 1e-4); otherwise it is halved up to 30 times, then taken in full (at a contact
+    kink no shorter step may decrease the residual; ``max_iter`` still bounds the loop).
+    """
+    nx, ny = conv.shape
+    b = conv._check_field(rhs, "rhs").copy()
+    zeta = conv._check_field(zeta0, "zeta0").copy()
+    if not (np.all(np.isfinite(b)) and np.all(np.isfinite(zeta))):
+        raise ValueError("solve_step_newton_krylov: rhs and zeta0 must be finite")
+    tol = float(tol)
+    if not math.isfinite(tol) or tol <= 0:
+        raise ValueError(f"tol: expected a finite number > 0 [m], got {tol!r}")
+    max_iter = _positive_int("max_iter", max_iter)
+    if isinstance(refresh_after, bool) or not isinstance(refresh_after, numbers.Integral) or refresh_after < 0:
+        raise ValueError(f"refresh_after: expected an integer >= 0, got {refresh_after!r}")
+    if not 0.0 < eta_max < 1.0:
+        raise ValueError(f"eta_max: expected 0 < eta_max < 1, got {eta_max!r}")
+    if preconditioner is None:
+        preconditioner = BlockJacobiPreconditioner(conv, block)
+    elif preconditioner.shape != conv.shape:
+        raise ValueError(f"preconditioner: patch shape {preconditioner.shape} differs from {conv.shape}")
+
+    def springs(z):
+        f, k = spring_eval(z)
+        f = np.asarray(f, dtype=float).reshape(nx, ny)
+        k = np.asarray(k, dtype=float).reshape(nx, ny)
+        return f, k
+
+    def residual(z):
+        f, k = springs(z)
+        return (z - b) + conv.apply_lag(f, 0), f, k
+
+    r, f, k = residual(zeta)
+    rinf = float(np.max(np.abs(r)))
+    r2 = _norm(r)
+    newton = 0
+    krylov = 0
+    its = 0
+    eta = eta_max
+    while rinf > tol:
+        if newton >= max_iter:
+            raise KrylovConvergenceError(
+                f"Newton-Krylov did not converge in {max_iter} iterations: max|R| = {rinf:.3e} m "
+                f"> tolerance {tol:.1e} m ({krylov} Krylov iterations)",
+                rinf,
+                newton,
+            )
+        if newton == 0 or its > refresh_after:
+            preconditioner.update(k)
+        kflat = k.ravel()
+
+        def matvec(v, kflat=kflat):
+            return v + conv.apply_lag((kflat * v).reshape(nx, ny), 0).ravel()
+
+        def psolve(v):
+            return preconditioner.solve(v).ravel()
+
+        target = max(eta * r2, 0.25 * tol)
+        delta, its, lin = _gmres(matvec, psolve, -r.ravel(), target, krylov_restart, krylov_max)
+        krylov += its
+        if lin > target:
+            logger.debug("GMRES stopped at ||J d + R|| = %.3e > target %.3e after %d products", lin, target, its)
+        delta = delta.reshape(nx, ny)
+        lam = 1.0
+        for _ in range(_MAX_HALVINGS + 1):
+            z_try = zeta + lam * delta
+            r_try, f_try, k_try = residual(z_try)
+            r2_try = _norm(r_try)
+            if r2_try <= (1.0 - 1e-4 * lam) * r2:
+                break
+            lam *= 0.5
+        else:
+            logger.debug("no residual decrease in %d halvings, full Newton step", _MAX_HALVINGS)
+            z_try = zeta + delta
+            r_try, f_try, k_try = residual(z_try)
+            r2_try = _norm(r_try)
+        # Eisenstat-Walker choice 2 with safeguard
+        eta_new = 0.9 * (r2_try / r2) ** 2
+        if 0.9 * eta**2 > 0.1:
+            eta_new = max(eta_new, 0.9 * eta**2)
+        eta = min(eta_max, eta_new)
+        zeta, r, f, k, r2 = z_try, r_try, f_try, k_try, r2_try
+        rinf = float(np.max(np.abs(r)))
+        newton += 1
+    return StepSolution(zeta, f, k, newton, krylov, rinf)
