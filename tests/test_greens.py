@@ -1,0 +1,264 @@
+"""tyreroad.greens: element Green's functions, time-domain kernels and the quasi-static kernel."""
+
+import numpy as np
+import pytest
+import scipy.special as sp
+
+from tyreroad import greens, io, layer
+from tyreroad.material import FractionalKelvinVoigt, Material
+from tyreroad.reference import love
+
+C = 1.0e-3  # element size [m]
+E = 10.0e6  # static modulus [Pa]
+NU = 0.49
+
+
+def _tread(loss_scale=1.0, thickness=0.01, model=None):
+    model = model or FractionalKelvinVoigt(E0=22e6, E1=44e6, alpha=0.24, f1=1000.0)
+    return Material(name="tread", poisson=NU, density=1100.0, thickness=thickness, model=model, loss_scale=loss_scale)
+
+
+def _matrix(table, nx, ny):
+    """Dense influence matrix A[e, m] = g[e - m] of an nx x ny patch from a table over -(n-1)..(n-1)."""
+    i, j = np.meshgrid(np.arange(nx), np.arange(ny), indexing="ij")
+    i, j = i.ravel(), j.ravel()
+    return table[i[:, None] - i[None, :] + nx - 1, j[:, None] - j[None, :] + ny - 1]
+
+
+# ---------------------------------------------------------------------------------------------- settings
+
+
+def test_settings_from_config_and_validation():
+    s = greens.GreensSettings.from_config({"sample_rate": 51200.0, "n_lags": 256, "n_fft": 4096})
+    assert (s.sample_rate, s.n_lags, s.n_fft) == (51200.0, 256, 4096)
+    f = s.frequencies
+    assert f.size == 2049 and f[1] == pytest.approx(12.5) and f[-1] == pytest.approx(25600.0)
+    with pytest.raises(ValueError, match="n_fft"):
+        greens.GreensSettings(51200.0, 256, 2048)
+    with pytest.raises(ValueError, match="power of two"):
+        greens.GreensSettings(51200.0, 256, 6000)
+    with pytest.raises(ValueError, match="n_lags"):
+        greens.GreensSettings(51200.0, 4000, 4096)
+    with pytest.raises(ValueError, match="sample_rate"):
+        greens.GreensSettings(-1.0, 256, 4096)
+    with pytest.raises(ValueError, match="unknown key"):
+        greens.GreensSettings.from_config({"sample_rate": 1.0, "n_lags": 2, "n_fft": 4096, "lags": 3})
+    with pytest.raises(ValueError, match="missing key"):
+        greens.GreensSettings.from_config({"sample_rate": 1.0, "n_lags": 2})
+
+
+# ---------------------------------------------------------------------------------------------- building blocks
+
+
+def test_square_load_harmonics_reconstruct_the_spectrum():
+    kc = np.array([0.0, 0.5, 5.0, 37.0])
+    coeffs, count = greens.square_load_harmonics(kc)
+    theta = np.linspace(0.0, 2 * np.pi, 61)
+    rebuilt = coeffs @ np.cos(4 * np.outer(np.arange(coeffs.shape[1]), theta))
+    exact = np.sinc(np.outer(kc, np.cos(theta)) / (2 * np.pi)) * np.sinc(np.outer(kc, np.sin(theta)) / (2 * np.pi))
+    np.testing.assert_allclose(rebuilt, exact, atol=1e-12)
+    assert coeffs[0, 0] == 1.0 and count[0] == 1
+    assert count[-1] > count[2] > 1  # more harmonics at larger k c
+
+
+def test_bessel_weight_kernel_matches_numpy_reference():
+    quad = greens.wavenumber_quadrature(C, 0.01, k_wave=2000.0, relative_width=0.05, r_max=0.02)
+    offsets = np.array([[0, 0], [1, 0], [1, 1], [3, 2], [14, 14], [19, 5], [0.3, 0.1]]) * C
+    w = greens.bessel_weights(quad, offsets, C)
+    coeffs, _ = greens.square_load_harmonics(quad.nodes * C)
+    r = np.hypot(offsets[:, 0], offsets[:, 1])
+    phi = np.arctan2(offsets[:, 1], offsets[:, 0])
+    ref = np.zeros_like(w)
+    for n in range(coeffs.shape[1]):
+        ref += coeffs[:, n : n + 1] * sp.jv(4 * n, np.outer(quad.nodes, r)) * np.cos(4 * n * phi)
+    ref *= (quad.weights * quad.nodes / (2 * np.pi))[:, None]
+    assert np.abs(w - ref).max() <= 1e-11 * np.abs(ref).max()
+
+
+def test_tail_coefficient_is_the_halfspace_asymptote():
+    omega = 2 * np.pi * 20e3
+    for nu in (0.3, 0.49):
+        e = 30e6 * (1 + 0.2j)
+        eps_s = 1100.0 * omega**2 * 2 * (1 + nu) / e
+        k = 300 * np.sqrt(abs(eps_s))
+        rem = layer.halfspace_compliance(k, omega, e, nu, 1100.0) - 2 * (1 - nu**2) / (e * k)
+        assert rem / (eps_s / (e * k**3)) == pytest.approx(greens._tail_coefficient(nu), rel=1e-3)
+
+
+def test_offset_table_index_symmetries():
+    dx, dy, index = greens.offset_table_index((3, 4))
+    assert list(dx) == [-2, -1, 0, 1, 2] and list(dy) == [-3, -2, -1, 0, 1, 2, 3]
+    np.testing.assert_array_equal(index, index[::-1, :])
+    np.testing.assert_array_equal(index, index[:, ::-1])
+    sq = greens.offset_table_index((4, 4))[2]
+    np.testing.assert_array_equal(sq, sq.T)
+    uniq = greens.unique_offsets((3, 4))
+    assert np.all(uniq[:, 0] >= uniq[:, 1]) and len(uniq) == len(np.unique(index))
+
+
+def test_frf_is_symmetric_in_the_offset():
+    m = _tread()
+    omega = 2 * np.pi * np.array([0.0, 5000.0, 20000.0])
+    offsets = np.array([[2, 1], [1, 2], [-2, 1], [-1, -2], [2, -1]]) * C
+    g = greens.element_frf(offsets, C, omega, m.modulus(omega), NU, m.density, m.thickness)
+    np.testing.assert_allclose(g, g[:, :1] * np.ones((1, 5)), rtol=1e-12)
+
+
+# ---------------------------------------------------------------------------------------------- static kernel
+
+
+def test_halfspace_limit_equals_love():
+    offsets = np.array([[0, 0], [1, 0], [1, 1], [3, 2]]) * C
+    for nu in (0.3, NU):
+        lv = (1 - nu**2) / E * love.rectangle_potential(offsets[:, 0], offsets[:, 1], C, C) / (np.pi * C * C)
+        assert lv[0] == pytest.approx(1.12220 * (1 - nu**2) / (E * C), rel=1e-5)
+        g = greens.static_element_kernel(offsets, C, E, nu, thickness=10.0)
+        np.testing.assert_allclose(g / lv, 1.0, atol=2e-3)
+        # same through the dynamic pipeline (layer.compliance, tail term) at omega -> 0
+        gd = greens.element_frf(offsets, C, [0.0, 1e-3], [E, E], nu, 1100.0, thickness=10.0)
+        np.testing.assert_allclose(gd.real / lv, 1.0, atol=2e-3)
+        assert np.abs(gd.imag).max() < 1e-9 * lv[0]
+
+
+def test_static_kernel_changes_sign_between_5_and_10_mm():
+    offsets = np.stack([np.arange(16), np.zeros(16)], axis=1) * C
+    g = greens.static_element_kernel(offsets, C, E, NU, thickness=0.01)
+    assert np.all(g[:6] > 0)  # up to 5 mm the surface is pushed in
+    assert np.all(g[10:] < 0)  # by 10 mm it bulges out (near-incompressible layer)
+    assert np.count_nonzero(np.diff(np.sign(g))) == 1
+
+
+def test_rigid_square_punch_stiffness():
+    n = 20
+    uniq = greens.unique_offsets((n, n))
+    g = greens.static_element_kernel(uniq * C, C, E, NU, thickness=0.01)
+    table = g[greens.offset_table_index((n, n))[2]]
+    forces = np.linalg.solve(_matrix(table, n, n), np.ones(n * n))  # unit indentation
+    assert forces.sum() / E == pytest.approx(0.117, rel=0.02)
+
+
+def test_static_kernel_converges_under_refinement():
+    offsets = np.array([[0, 0], [1, 0], [4, 3], [12, 7], [19, 19]]) * C
+    g1 = greens.static_element_kernel(offsets, C, E, NU, 0.01)
+    g2 = greens.static_element_kernel(offsets, C, E, NU, 0.01, refine=2.0)
+    assert np.abs(g1 - g2).max() < 1e-9 * g2[0]
+
+
+def test_static_kernel_agrees_with_padded_fft():
+    """2-D FFT of H0(k) sinc sinc on a zero-padded periodic grid (no Love split), Richardson-extrapolated
+    in the grid step (the FFT's truncation error of the square load's spectrum falls as step^2)."""
+    h = 3e-3  # the layer kernel decays within a few h, so a 48 mm period keeps images away
+    period = 0.048
+    offsets = np.array([[0, 0], [1, 0], [2, 1], [5, 0]])
+    values = {}
+    for m in (8, 16):
+        step = C / m
+        n = int(round(period / step))
+        kx = 2 * np.pi * np.fft.fftfreq(n, step)
+        h0 = layer.static_compliance(np.hypot(kx[:, None], kx[None, :]), E, NU, h)
+        p = np.sinc(kx * C / (2 * np.pi))
+        field = np.fft.ifft2(h0 * p[:, None] * p[None, :]).real / step**2
+        values[m] = field[offsets[:, 0] * m, offsets[:, 1] * m]
+    fft = (4 * values[16] - values[8]) / 3
+    g = greens.static_element_kernel(offsets * C, C, E, NU, h)
+    np.testing.assert_allclose(fft, g, rtol=1e-3)
+    assert np.abs(fft - g).max() < 2e-4 * g[0]
+
+
+# ---------------------------------------------------------------------------------------------- dynamic kernel
+
+
+def test_dynamic_frf_converges_under_refinement_lightly_damped():
+    m = _tread(loss_scale=0.5)
+    omega = 2 * np.pi * np.array([1000.0, 4000.0, 9000.0, 17000.0, 25600.0])
+    offsets = np.array([[0, 0], [1, 0], [5, 2], [19, 19]]) * C
+    args = (C, omega, m.modulus(omega), NU, m.density, m.thickness)
+    g1 = greens.element_frf(offsets, *args)
+    g2 = greens.element_frf(offsets, *args, refine=2.0)
+    assert np.abs(g1 - g2).max() < 1e-7 * np.abs(g2[:, 0]).min()
+    assert np.all(g1[:, 0].imag < 0)  # passive
+
+
+def test_zero_frequency_frf_equals_static_kernel():
+    offsets = np.array([[0, 0], [1, 0], [3, 3], [9, 2]]) * C
+    static = greens.static_element_kernel(offsets, C, E, NU, 0.01)
+    omega = np.array([0.0, 2 * np.pi * 1e-3])
+    g = greens.element_frf(offsets, C, omega, [E, E], NU, 1100.0, 0.01)
+    np.testing.assert_allclose(g.real, np.tile(static, (2, 1)), rtol=1e-6, atol=1e-7 * static[0])
+    assert np.abs(g[0].imag).max() == 0.0
+
+
+@pytest.fixture(scope="module")
+def small_dataset():
+    return greens.greens_dataset(_tread(), (3, 4), C, sample_rate=51200.0, n_lags=256, n_fft=4096)
+
+
+def test_dataset_sum_rule_symmetry_and_metadata(small_dataset, tmp_path):
+    m = _tread()
+    ds = small_dataset
+    assert ds.g.dims == ("dx", "dy", "lag") and ds.g.shape == (5, 7, 256)
+    assert ds.frequency.size == 2049
+    g = ds.g.values
+    np.testing.assert_array_equal(g, g[::-1, :, :])
+    np.testing.assert_array_equal(g, g[:, ::-1, :])
+    np.testing.assert_array_equal(g[:, 1:6], np.swapaxes(g[:, 1:6], 0, 1))  # x <-> y within |d| <= 2
+    gs = ds.g_static.values
+    np.testing.assert_array_equal(gs, gs[::-1, ::-1])
+    # sum rule: the full inverse transform of the stored FRF sums to g(omega=0), which with the
+    # zero-frequency quasi-static modulus is the independently computed static kernel
+    frf = ds.frf_real.values + 1j * ds.frf_imag.values
+    full = np.fft.irfft(frf, n=4096)
+    g0 = float(ds.g_static.sel(dx=0, dy=0))
+    assert full.sum() == pytest.approx(g0, rel=1e-6)
+    np.testing.assert_allclose(ds.g.sel(dx=0, dy=0).values, full[:256], rtol=0, atol=1e-12 * g0)
+    assert float(ds.kept_fraction) == pytest.approx(full[:256].sum() / g0, rel=1e-10)
+    assert 0.3 < float(ds.kept_fraction) < 1.0
+    assert 0.0 <= float(ds.precursor_energy_fraction) < 0.1
+    assert np.all(ds.frf_imag.values[1:] < 0)  # passive
+    np.testing.assert_allclose(ds.storage_modulus.values, m.modulus(2 * np.pi * ds.frequency.values).real)
+    assert ds.attrs["n_fft"] == 4096 and ds.attrs["element_size"] == C
+    path = io.write_dataset(ds, tmp_path / "greens" / "tread.nc", {"greens": {"n_fft": 4096}})
+    back = io.read_dataset(path)
+    np.testing.assert_array_equal(back.g.values, g)
+
+
+def test_rayleigh_arrival_in_thick_lightly_damped_layer():
+    # h = 0.2 m: base reflections (P round trip 2h/c_p ~ 1.3 ms) arrive after the surface wave at 30 mm
+    model = FractionalKelvinVoigt(E0=5e6, E1=5e6, alpha=0.13, f1=5000.0)  # eta ~ 0.1 near 5 kHz
+    m = _tread(thickness=0.2, model=model)
+    fs, n_fft = 25600.0, 2048
+    omega = 2 * np.pi * np.arange(n_fft // 2 + 1) * fs / n_fft
+    offsets = np.array([[20, 0], [30, 0]]) * C
+    frf = greens.element_frf(offsets, C, omega, m.modulus(omega), NU, m.density, m.thickness)
+    g, _, _ = greens.time_kernel(frf, n_fft, n_fft // 2)
+    mu = m.modulus(2 * np.pi * 5000.0) / (2 * (1 + NU))
+    c_rayleigh = 0.9541 / np.real(np.sqrt(m.density / mu))  # SPEC: c_R / c_s = 0.9541 at nu = 0.49
+    for j, r in enumerate(offsets[:, 0]):
+        t_peak = np.argmax(np.abs(g[:, j])) / fs
+        assert t_peak == pytest.approx(r / c_rayleigh, rel=0.15)
+
+
+def test_bad_input_raises():
+    with pytest.raises(ValueError, match="n_elements"):
+        greens.unique_offsets((0, 3))
+    with pytest.raises(ValueError, match="modulus"):
+        greens.element_frf([[0, 0]], C, [1.0], [-1e6], NU, 1100.0, 0.01)
+    with pytest.raises(ValueError, match="thickness"):
+        greens.static_element_kernel([[0, 0]], C, E, NU, 0.0)
+    with pytest.raises(ValueError, match="frequencies"):
+        greens.time_kernel(np.ones(10), 4096, 256)
+
+
+def test_figures_2_and_3_are_written(small_dataset, tmp_path):
+    from tyreroad.plots.greens import plot_frf, plot_materials
+
+    other = small_dataset.copy()
+    other.attrs["material"] = "tread-eta0.5"
+    for plot, name in ((plot_materials, "fig2.png"), (plot_frf, "fig3.png")):
+        path = plot([small_dataset, other], tmp_path / name)
+        data = path.read_bytes()
+        assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 20_000
+    with pytest.raises(ValueError, match="frf_real"):
+        plot_frf([small_dataset.drop_vars("frf_real")], tmp_path / "bad.png")
+    with pytest.raises(ValueError, match="no datasets"):
+        plot_materials([], tmp_path / "bad.png")
