@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import re
 from dataclasses import dataclass
@@ -509,3 +510,33 @@ def test_numba_springs_equal_the_springs_module_contract():
     f_ref, k_ref = springs.evaluate(zeta, step, k_tab, f_tab)
     np.testing.assert_allclose(f, f_ref, rtol=1e-13, atol=1e-14 * f_tab.max())
     np.testing.assert_allclose(k, k_ref, rtol=1e-13, atol=0)
+
+
+# --------------------------------------------------------------------------------------------
+# FFT / Newton-Krylov path (issue 7) against the dense reference path
+# --------------------------------------------------------------------------------------------
+def test_fft_path_equals_dense_path(realistic_run):
+    z1, k, f, step, kernel, settings, dense = realistic_run
+    fft_settings = dataclasses.replace(settings, method="fft")
+    fft = solve_dynamic(z1, k, f, step, kernel, 51200.0, 500.0, fft_settings)
+    assert fft.force.shape == dense.force.shape
+    scale = dense.force.max()
+    np.testing.assert_allclose(fft.force, dense.force, rtol=1e-10, atol=1e-10 * scale)
+    np.testing.assert_allclose(fft.element_force, dense.element_force, rtol=0, atol=1e-10 * scale)
+    np.testing.assert_array_equal(fft.contact_count, dense.contact_count)
+    assert fft.residual.max() <= settings.tolerance
+    # quasi-static (one-lag kernel) as well
+    g_static = kernel.sum(axis=2)
+    qs_dense = solve_quasistatic(z1, k, f, step, g_static, settings)
+    qs_fft = solve_quasistatic(z1, k, f, step, g_static, fft_settings)
+    np.testing.assert_allclose(qs_fft.force, qs_dense.force, rtol=1e-10, atol=1e-10 * qs_dense.force.max())
+
+
+def test_method_selection_and_validation():
+    assert SolverSettings().resolved_method(400) == "dense"
+    assert SolverSettings().resolved_method(401) == "fft"
+    assert SolverSettings(method="dense").resolved_method(30000) == "dense"
+    with pytest.raises(ValueError, match="solver.method"):
+        SolverSettings.from_config({"method": "magic"})
+    with pytest.raises(ValueError, match="solver.preconditioner_block"):
+        SolverSettings.from_config({"preconditioner_block": 0})
