@@ -118,6 +118,11 @@ class Iso10844Parameters:
         major diameter [-]. Small values give flat, well-rolled stone tops.
     top_scatter : float
         Standard deviation of the stone top heights about the common level z = 0 [m].
+    roller_level : float or None
+        Level of the finishing roller relative to the common level [m]: stones whose top would
+        stand above it are pressed down to it (the hot mix yields), so the tops are
+        min(N(0, top_scatter), roller_level) and a share of the stones ends exactly at the
+        roller plane. None: no rolling (Gaussian tops).
     mortar_depth : float
         Mean level of the mortar below the common stone top level [m].
     mortar_rms : float
@@ -142,6 +147,7 @@ class Iso10844Parameters:
     stone_ellipticity: tuple[float, float] = (0.7, 1.0)
     cap_height_ratio: float = 0.06
     top_scatter: float = 0.04e-3
+    roller_level: float | None = None
     mortar_depth: float = 1.0e-3
     mortar_rms: float = 0.15e-3
     mortar_hurst: float = 0.8
@@ -163,6 +169,8 @@ class Iso10844Parameters:
         for name in ("top_scatter", "mortar_depth", "mortar_rms", "microtexture_rms"):
             if not getattr(self, name) >= 0:
                 raise ValueError(f"{name} must be >= 0, got {getattr(self, name)!r}")
+        if self.roller_level is not None and not math.isfinite(self.roller_level):
+            raise ValueError(f"roller_level must be a finite number [m] or null, got {self.roller_level!r}")
         for name in ("mortar_hurst", "microtexture_hurst"):
             if not 0.0 < getattr(self, name) <= 1.0:
                 raise ValueError(f"{name} must lie in (0, 1], got {getattr(self, name)!r}")
@@ -459,6 +467,8 @@ def generate_iso10844(params: Iso10844Parameters, step: float, rng: np.random.Ge
     cx = rng.uniform(-margin, lx + margin, n_stones)
     cy = rng.uniform(-margin, ly + margin, n_stones)
     top = p.top_scatter * rng.standard_normal(n_stones)
+    if p.roller_level is not None:
+        top = np.minimum(top, p.roller_level)
 
     surf = self_affine_field((nx, ny), step, p.mortar_rms, p.mortar_hurst, p.mortar_rolloff, rng, p.mortar_cutoff)
     surf -= p.mortar_depth
