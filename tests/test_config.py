@@ -28,9 +28,10 @@ def _validate(cfg):
 def test_default_and_test_configs_are_valid(config):
     _validate(config)
     check_references(config)
-    overlay = load_config(ROOT / "config" / "config.yaml", ROOT / "config" / "test.yaml")
-    _validate(overlay)
-    check_references(overlay)
+    for name in ("test.yaml", "footprint.yaml"):
+        overlay = load_config(ROOT / "config" / "config.yaml", ROOT / "config" / name)
+        _validate(overlay)
+        check_references(overlay)
 
 
 @pytest.mark.parametrize(

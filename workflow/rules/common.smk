@@ -18,6 +18,16 @@ wildcard_constraints:
     accel=r"[0-9][0-9.e+\-]*",
 
 
+# Cheap aggregation and plotting jobs run on the submitting host, never as cluster jobs.
+localrules:
+    all,
+    springs_figure,
+    greens_figures,
+    study,
+    study_figures,
+    report,
+
+
 STUDY = config["study"]
 STUDY_SURFACE = STUDY["surface"]
 
