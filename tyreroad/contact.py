@@ -48,6 +48,8 @@ import numpy as np
 import xarray as xr
 from numba import njit, prange
 
+from .convolution import check_offset_kernel
+
 logger = logging.getLogger(__name__)
 
 __all__ = [
@@ -317,25 +319,6 @@ def evaluate_springs(zeta, stiffness, force, zeta_step) -> tuple[np.ndarray, np.
 # --------------------------------------------------------------------------------------------
 # Kernel handling and history sums
 # --------------------------------------------------------------------------------------------
-def _check_kernel(kernel, nx: int, ny: int, name: str = "kernel") -> np.ndarray:
-    """Validate an offset table g[dx, dy, lag]; crop a larger centred table to the patch."""
-    g = np.asarray(kernel, dtype=float)
-    if g.ndim != 3 or g.shape[2] < 1:
-        raise ValueError(f"{name}: expected g[dx, dy, lag] with 3 dimensions, got shape {g.shape}")
-    need = (2 * nx - 1, 2 * ny - 1)
-    for axis in (0, 1):
-        if g.shape[axis] % 2 != 1 or g.shape[axis] < need[axis]:
-            raise ValueError(
-                f"{name}: offset axis {axis} must be odd (offsets -(N-1)..N-1) and cover the patch, "
-                f"need >= {need[axis]}, got {g.shape[axis]}"
-            )
-    cx, cy = (g.shape[0] - 1) // 2, (g.shape[1] - 1) // 2
-    g = g[cx - (nx - 1) : cx + nx, cy - (ny - 1) : cy + ny, :]
-    if not np.all(np.isfinite(g)):
-        raise ValueError(f"{name}: contains NaN or infinite values")
-    return g
-
-
 def _offset_indices(nx: int, ny: int) -> tuple[np.ndarray, np.ndarray]:
     """Table indices (dx + nx - 1, dy + ny - 1) of e - m for all element pairs (C order)."""
     ex, ey = np.divmod(np.arange(nx * ny), ny)
@@ -370,7 +353,7 @@ def dense_history_sum(kernel, force_history, n: int) -> np.ndarray:
     if f.ndim != 3:
         raise ValueError(f"force_history: expected F[step, ex, ey], got shape {f.shape}")
     nx, ny = f.shape[1:]
-    g = _check_kernel(kernel, nx, ny)
+    g = check_offset_kernel(kernel, nx, ny)
     h = np.zeros(nx * ny)
     for lag in range(1, min(g.shape[2] - 1, n) + 1):
         h += _lag_matrix(g, lag) @ f[n - lag].ravel()
@@ -613,7 +596,7 @@ def solve_path(
     nx, ny = z1.shape
     n_elem = nx * ny
     k_tab, f_tab, step = _check_spring_tables(stiffness, force, zeta_step, n_elem)
-    g = _check_kernel(kernel, nx, ny)
+    g = check_offset_kernel(kernel, nx, ny)
     d = np.asarray(indentation, dtype=float)
     if d.ndim != 1 or d.size == 0 or not np.all(np.isfinite(d)):
         raise ValueError("indentation: expected a finite 1-D array [m]")

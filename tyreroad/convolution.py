@@ -79,6 +79,7 @@ __all__ = [
     "KrylovConvergenceError",
     "OffsetConvolution",
     "StepSolution",
+    "check_offset_kernel",
     "padded_shape",
     "solve_step_newton_krylov",
 ]
@@ -134,22 +135,32 @@ def padded_shape(shape) -> tuple[int, int]:
     return (scipy.fft.next_fast_len(2 * nx - 1, real=True), scipy.fft.next_fast_len(2 * ny - 1, real=True))
 
 
-def _check_kernel(kernel, nx: int, ny: int) -> np.ndarray:
-    """Validate g[dx, dy, lag]; a larger centred (odd) table is cropped to the patch offsets."""
+def check_offset_kernel(kernel, nx: int, ny: int, name: str = "kernel") -> np.ndarray:
+    """Validate an offset table g[dx, dy, lag] for an nx x ny patch and return it as floats.
+
+    The table holds offsets -(n-1) ... n-1 along each axis (odd length, centred); a larger
+    centred table is cropped to the patch's offsets.
+
+    Raises
+    ------
+    ValueError
+        Naming ``name`` when the table has the wrong rank, an even or too short offset axis, or
+        non-finite values.
+    """
     g = np.asarray(kernel, dtype=float)
     if g.ndim != 3 or g.shape[2] < 1:
-        raise ValueError(f"kernel: expected g[dx, dy, lag] with 3 dimensions and >= 1 lag, got shape {g.shape}")
+        raise ValueError(f"{name}: expected g[dx, dy, lag] with 3 dimensions and >= 1 lag, got shape {g.shape}")
     need = (2 * nx - 1, 2 * ny - 1)
     for axis in (0, 1):
         if g.shape[axis] % 2 != 1 or g.shape[axis] < need[axis]:
             raise ValueError(
-                f"kernel: offset axis {axis} must have odd length (offsets -(n-1)..n-1) covering the "
+                f"{name}: offset axis {axis} must have odd length (offsets -(n-1)..n-1) covering the "
                 f"patch shape {(nx, ny)}, need >= {need[axis]}, got {g.shape[axis]}"
             )
     cx, cy = (g.shape[0] - 1) // 2, (g.shape[1] - 1) // 2
     g = g[cx - (nx - 1) : cx + nx, cy - (ny - 1) : cy + ny, :]
     if not np.all(np.isfinite(g)):
-        raise ValueError("kernel: contains NaN or infinite values")
+        raise ValueError(f"{name}: contains NaN or infinite values")
     return g
 
 
@@ -186,7 +197,7 @@ class OffsetConvolution:
             raise ValueError(f"shape: expected (nx, ny), got {shape!r}")
         nx, ny = (_positive_int(f"shape[{i}]", v) for i, v in enumerate(shape))
         self.workers = _positive_int("workers", workers)
-        g = _check_kernel(kernel, nx, ny)
+        g = check_offset_kernel(kernel, nx, ny)
         self.shape = (nx, ny)
         self.n_lags = g.shape[2]
         self.padded = padded_shape(self.shape)
