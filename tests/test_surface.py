@@ -5,16 +5,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from pathlib import Path
+
 from tyreroad import surface as S
+from tyreroad.config import load_config
 
 STEP = 1e-3 / 26
-DEFAULT_PRESET = {
-    "generator": "iso10844",
-    "seed": 20140101,
-    "element_size": 1.0e-3,
-    "samples_per_element": 26,
-    "patch_elements": [20, 20],
-}
+# the study's default preset, exactly as configured
+DEFAULT_PRESET = load_config(Path(__file__).resolve().parents[1] / "config" / "config.yaml")["surfaces"]["iso10844"]
 
 
 @pytest.fixture(scope="module")
@@ -305,3 +303,14 @@ def test_plot_patch_writes_png(default_ds, tmp_path):
     assert img.ndim == 3 and img.shape[0] > 500 and img.shape[1] > 500
     # not a blank canvas: the colour map spans many colours
     assert np.unique(img.reshape(-1, img.shape[2])[:, :3], axis=0).shape[0] > 100
+
+
+def test_roller_presses_stone_tops_down_to_its_level():
+    """tops = min(N(0, scatter), roller_level): no stone stands above the roller plane."""
+    small = dict(field_size=(0.03, 0.03), mortar_rms=0.0, microtexture_rms=0.0, top_scatter=4e-5)
+    rolled = S.generate_iso10844(S.Iso10844Parameters(**small, roller_level=0.0), STEP, np.random.default_rng(3))
+    free = S.generate_iso10844(S.Iso10844Parameters(**small), STEP, np.random.default_rng(3))
+    assert rolled.max() <= 1e-15
+    assert free.max() > 4e-5  # about 2.5 standard deviations for ~100 stones
+    # rolling concentrates the stone tops at the plane: many samples within 5 um of the top
+    assert np.mean(rolled > rolled.max() - 5e-6) > 5 * np.mean(free > free.max() - 5e-6)
