@@ -43,8 +43,8 @@ def test_settings_from_config_and_validation():
         greens.GreensSettings(-1.0, 256, 4096)
     with pytest.raises(ValueError, match="unknown key"):
         greens.GreensSettings.from_config({"sample_rate": 1.0, "n_lags": 2, "n_fft": 4096, "lags": 3})
-    with pytest.raises(ValueError, match="missing key"):
-        greens.GreensSettings.from_config({"sample_rate": 1.0, "n_lags": 2})
+    # missing keys take the paper's sampling, as in the schema
+    assert greens.GreensSettings.from_config({"n_lags": 64}) == greens.GreensSettings(51200.0, 64, 4096)
 
 
 # ---------------------------------------------------------------------------------------------- building blocks

@@ -117,9 +117,9 @@ class GreensSettings:
         f_j = j fs / n_fft, j = 0 ... n_fft/2. A power of two >= 4096.
     """
 
-    sample_rate: float
-    n_lags: int
-    n_fft: int
+    sample_rate: float = 51200.0
+    n_lags: int = 256
+    n_fft: int = 4096
 
     def __post_init__(self):
         fs = self.sample_rate
@@ -140,17 +140,15 @@ class GreensSettings:
 
     @classmethod
     def from_config(cls, section: Mapping[str, Any]) -> "GreensSettings":
-        """Build from the ``greens`` config section; unknown or missing keys raise ``ValueError``."""
+        """Build from the ``greens`` config section; missing keys take the defaults (the paper's
+        51.2 kHz, 256 lags, n_fft 4096), unknown keys raise ``ValueError``."""
         if not isinstance(section, Mapping):
             raise ValueError(f"config section 'greens' must be a mapping, got {type(section).__name__}")
         keys = {"sample_rate", "n_lags", "n_fft"}
         unknown = set(section) - keys
         if unknown:
             raise ValueError(f"greens: unknown key(s) {sorted(unknown)}; expected {sorted(keys)}")
-        missing = keys - set(section)
-        if missing:
-            raise ValueError(f"greens: missing key(s) {sorted(missing)}")
-        return cls(sample_rate=section["sample_rate"], n_lags=section["n_lags"], n_fft=section["n_fft"])
+        return cls(**{key: section[key] for key in keys if key in section})
 
     @property
     def frequencies(self) -> np.ndarray:
