@@ -67,3 +67,15 @@ def test_complex_variables_are_refused(tmp_path):
 def test_read_missing_file_names_it(tmp_path):
     with pytest.raises(FileNotFoundError, match="nope.nc"):
         io.read_dataset(tmp_path / "nope.nc")
+
+
+def test_written_files_get_normal_permissions(tmp_path):
+    import os
+    import stat
+
+    umask = os.umask(0o022)
+    try:
+        path = io.write_dataset(_dataset(), tmp_path / "run.nc", {})
+    finally:
+        os.umask(umask)
+    assert stat.S_IMODE(path.stat().st_mode) == 0o644
