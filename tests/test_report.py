@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 import xarray as xr
 
+from _synthetic import synthetic_run
 from tyreroad import io
 from tyreroad.report import (
     THRESHOLDS,
@@ -75,30 +76,10 @@ def passing_specs() -> dict:
 
 def run_dataset(key, spec: RunSpec) -> xr.Dataset:
     material, mode, accel = key
-    if mode == "quasistatic":
-        d = np.arange(round(D_MAX / 1e-6) + 1) * 1e-6
-        time = None
-    else:
-        time = np.arange(math.ceil(math.sqrt(2 * D_MAX / accel) / DT) + 1) * DT
-        d = 0.5 * accel * time**2
-    n_el = N_EX * N_EY
-    force = spec.force_fn(d)
-    coords = {
-        "step": ("step", np.arange(d.size), {"units": "1", "long_name": "step"}),
-        "indentation": ("step", d, {"units": "m", "long_name": "indentation"}),
-        "ex": ("ex", np.arange(N_EX), {"units": "1", "long_name": "element x index"}),
-        "ey": ("ey", np.arange(N_EY), {"units": "1", "long_name": "element y index"}),
-    }
-    if time is not None:
-        coords["time"] = ("step", time, {"units": "s", "long_name": "time"})
-    data = {
-        "force": ("step", force, {"units": "N", "long_name": "total force"}),
-        "backing_force": ("step", spec.backing * force, {"units": "N", "long_name": "backing force"}),
-        "contact_count": ("step", np.round(spec.fraction(d) * n_el), {"units": "1", "long_name": "contact count"}),
-        "element_force": (("step", "ex", "ey"), np.zeros((d.size, N_EX, N_EY)), {"units": "N", "long_name": "F_e"}),
-    }
-    attrs = {"mode": mode, "acceleration": float(accel), "material": material, "surface": "synth"}
-    return xr.Dataset(data, coords=coords, attrs=attrs)
+    return synthetic_run(
+        material, mode, accel, spec.force_fn, fraction_fn=spec.fraction, backing_scale=spec.backing,
+        d_max=D_MAX, shape=(N_EX, N_EY),
+    )
 
 
 SETTINGS = StudySettings.from_config(

@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 import xarray as xr
 
+import _synthetic
 from tyreroad import io
 from tyreroad.study import (
     StudySettings,
@@ -37,42 +38,9 @@ def stiffness_saturating(S, s):
     return lambda d: S * (1.0 - np.exp(-d / s))
 
 
-def synthetic_run(material, mode, accel, force_fn, fraction_fn=None, backing_scale=1.0, surface="synth",
-                  d_max=D_MAX, qs_step=1e-6, overshoot=True):
-    """A contact dataset (INTERFACES 'Contact dataset') with a prescribed F(d) and contact fraction."""
-    if mode == "quasistatic":
-        d = np.arange(round(d_max / qs_step) + 1) * qs_step
-        time = None
-    else:
-        n = math.ceil(math.sqrt(2 * d_max / accel) / DT) if overshoot else math.floor(math.sqrt(2 * d_max / accel) / DT)
-        time = np.arange(n + 1) * DT
-        d = 0.5 * accel * time**2
-    n_el = N_EX * N_EY
-    if fraction_fn is None:
-        fraction_fn = lambda x: 1.0 - np.exp(-x / 5e-5)  # noqa: E731
-    force = force_fn(d)
-    count = np.round(fraction_fn(d) * n_el)
-    coords = {
-        "step": ("step", np.arange(d.size), {"units": "1", "long_name": "step"}),
-        "indentation": ("step", d, {"units": "m", "long_name": "indentation"}),
-        "ex": ("ex", np.arange(N_EX), {"units": "1", "long_name": "element x index"}),
-        "ey": ("ey", np.arange(N_EY), {"units": "1", "long_name": "element y index"}),
-    }
-    if time is not None:
-        coords["time"] = ("step", time, {"units": "s", "long_name": "time"})
-    per_el = np.broadcast_to((force / n_el)[:, None, None], (d.size, N_EX, N_EY)).copy()
-    data = {
-        "force": ("step", force, {"units": "N", "long_name": "total force"}),
-        "backing_force": ("step", backing_scale * force, {"units": "N", "long_name": "backing force"}),
-        "contact_count": ("step", count, {"units": "1", "long_name": "contact count"}),
-        "element_force": (("step", "ex", "ey"), per_el, {"units": "N", "long_name": "element force"}),
-        "compression": (("step", "ex", "ey"), np.zeros_like(per_el), {"units": "m", "long_name": "zeta"}),
-        "displacement": (("step", "ex", "ey"), np.zeros_like(per_el), {"units": "m", "long_name": "w"}),
-        "newton_iterations": ("step", np.full(d.size, 3), {"units": "1", "long_name": "iterations"}),
-        "residual": ("step", np.full(d.size, 1e-14), {"units": "m", "long_name": "residual"}),
-    }
-    attrs = {"mode": mode, "acceleration": float(accel), "material": material, "surface": surface}
-    return xr.Dataset(data, coords=coords, attrs=attrs)
+def synthetic_run(material, mode, accel, force_fn, **kw):
+    """A synthetic contact run on the 4 x 5 test patch (see tests/_synthetic.py)."""
+    return _synthetic.synthetic_run(material, mode, accel, force_fn, shape=(N_EX, N_EY), **kw)
 
 
 def settings(materials=("ref", "other"), accelerations=(50.0, 500.0), **kw):
