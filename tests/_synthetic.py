@@ -16,7 +16,7 @@ DT = 1.0 / 51200.0  # s, the study's time step
 
 def synthetic_run(material, mode, accel, force_fn, fraction_fn=None, backing_scale=1.0, surface="synth",
                   d_max=2.5e-4, qs_step=1e-6, overshoot=True, shape=(4, 5)):
-    """A contact dataset (INTERFACES 'Contact dataset') with a prescribed F(d) and contact fraction.
+    """A contact dataset (docs/data_contracts.md 'Contact dataset') with a prescribed F(d) and contact fraction.
 
     Dynamic runs sample d = a t^2/2 at t_n = n DT up to the first step with d >= d_max
     (``overshoot=False``: the last step below d_max); quasi-static runs step d uniformly by

@@ -34,7 +34,7 @@ H = 0.01
 
 
 def surface(height: np.ndarray, n: int = N_EL, step: float = DX) -> xr.Dataset:
-    """A minimal surface dataset of the INTERFACES.md contract."""
+    """A minimal surface dataset of the docs/data_contracts.md contract."""
     nx, ny = height.shape
     return xr.Dataset(
         {"height": (("x", "y"), height, {"units": "m", "long_name": "road height"})},

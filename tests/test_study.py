@@ -1,6 +1,6 @@
 """Study aggregation (tyreroad.study) and figures 5-8 (tyreroad.plots.study) on synthetic contact runs.
 
-The synthetic runs follow the Contact dataset contract (INTERFACES.md) with a force whose stiffness
+The synthetic runs follow the Contact dataset contract (docs/data_contracts.md) with a force whose stiffness
 is known in closed form: F(d) = S (d - s (1 - exp(-d/s))), so K(d) = S (1 - exp(-d/s)).
 """
 

@@ -223,11 +223,11 @@ class ContactResult:
 
 
 # --------------------------------------------------------------------------------------------
-# Spring tables (interpolation contract of INTERFACES.md, shared with tyreroad.springs.evaluate)
+# Spring tables (interpolation contract of docs/data_contracts.md, shared with tyreroad.springs.evaluate)
 # --------------------------------------------------------------------------------------------
 @njit(cache=True)
 def _spring_eval(zeta, stiffness, force, zeta_step, f_out, k_out):  # pragma: no cover - numba
-    """F and k of every element's spring at its compression (contract of INTERFACES.md)."""
+    """F and k of every element's spring at its compression (contract of docs/data_contracts.md)."""
     n_elem, n_zeta = stiffness.shape
     last = n_zeta - 1
     zeta_last = last * zeta_step
@@ -837,7 +837,7 @@ def solve_run(
     settings: SolverSettings,
     threads: int = 1,
 ) -> ContactResult:
-    """One contact run from the stage datasets (surface, springs, greens; INTERFACES.md).
+    """One contact run from the stage datasets (surface, springs, greens; docs/data_contracts.md).
 
     Dynamic runs also get the backing force (:func:`backing_force` with the greens file's
     ``sample_rate`` and ``n_fft``); for quasi-static runs it equals the surface force.
@@ -1025,7 +1025,7 @@ def contact_dataset(
     surface_name: str,
     material_name: str,
 ) -> xr.Dataset:
-    """The contact file's dataset (INTERFACES.md "Contact dataset").
+    """The contact file's dataset (docs/data_contracts.md "Contact dataset").
 
     Parameters
     ----------

@@ -614,7 +614,7 @@ def solve_step_newton_krylov(
     zeta0 : array_like
         Start value [m] (warm start from the previous step), same shape.
     spring_eval : callable
-        zeta -> (F [N], k [N/m]) for every element (INTERFACES.md contract: zero for
+        zeta -> (F [N], k [N/m]) for every element (docs/data_contracts.md contract: zero for
         zeta <= 0, k = dF/dzeta); called with an (nx, ny) array, may return (nx, ny) or flat.
     conv : OffsetConvolution
         Kernel; lag 0 is G_0.

@@ -517,7 +517,7 @@ def _surface_section(surface: xr.Dataset) -> list[str]:
     need = ("mpd", "rms_height", "skewness", "peak_fraction_within", "z1")
     missing = [n for n in need if n not in surface.variables]
     if missing:
-        raise ValueError(f"surface dataset lacks {', '.join(missing)} (INTERFACES 'Surface dataset')")
+        raise ValueError(f"surface dataset lacks {', '.join(missing)} (docs/data_contracts.md 'Surface dataset')")
     lines = [
         f"## Road surface `{surface.attrs.get('surface', '?')}`",
         "",

@@ -38,7 +38,7 @@ P(k) = int_0^a g(t) cos(kt) dt and the layer compliance as 2 L(kh) / (E* k), Abe
 the displacement condition gives the equation above with g = (E* delta / pi) phi, and the total
 force 2 pi P(0) = 2 E* a delta kappa. It reproduces Hayes' table to better than 0.3 % (tests).
 
-Interpolation contract (shared with the contact solver, INTERFACES.md): for zeta <= 0, k = F = 0;
+Interpolation contract (shared with the contact solver, docs/data_contracts.md): for zeta <= 0, k = F = 0;
 on the uniform grid zeta_j = j * zeta_step the stiffness is piecewise linear between the table
 values; F is the exact integral of that piecewise-linear k, so the tabulated F is the cumulative
 trapezoid of k; beyond the last grid point k stays at its last value and F grows linearly.
@@ -643,7 +643,7 @@ def element_springs(
     Parameters
     ----------
     surface_ds : xarray.Dataset
-        Surface dataset (INTERFACES.md): ``height[x, y]`` [m] of the patch's fine samples and
+        Surface dataset (docs/data_contracts.md): ``height[x, y]`` [m] of the patch's fine samples and
         attributes ``samples_per_element`` (n), ``scan_step`` [m] (and ``element_size`` [m],
         checked against n * scan_step when present). Element (i, j) holds the samples
         [i n:(i+1) n, j n:(j+1) n]; its matching height z1 is its highest sample.

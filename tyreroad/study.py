@@ -382,7 +382,7 @@ def aggregate(contacts: Iterable[xr.Dataset | str | Path], settings: StudySettin
     Parameters
     ----------
     contacts : iterable of xarray.Dataset or path-like
-        Contact datasets (INTERFACES "Contact dataset") or their files; exactly one per case of
+        Contact datasets (docs/data_contracts.md "Contact dataset") or their files; exactly one per case of
         :func:`expected_cases` (any order).
     settings : StudySettings
         The study settings.

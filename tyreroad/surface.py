@@ -914,7 +914,7 @@ def prepare_surface(name: str, spec: Mapping, base_dir: str | Path = ".") -> xr.
     Returns
     -------
     xarray.Dataset
-        The surface dataset of INTERFACES.md (see :func:`surface_dataset`).
+        The surface dataset of docs/data_contracts.md (see :func:`surface_dataset`).
     """
     if not isinstance(spec, Mapping):
         raise ValueError(f"surfaces.{name}: expected a mapping of settings, got {type(spec).__name__}")
@@ -953,7 +953,7 @@ def surface_dataset(
     selection: PatchSelection,
     source: str = "",
 ) -> xr.Dataset:
-    """Texture statistics of a field, patch selection and the surface dataset of INTERFACES.md.
+    """Texture statistics of a field, patch selection and the surface dataset of docs/data_contracts.md.
 
     Parameters
     ----------
