@@ -604,68 +604,118 @@ def solve_path(
         raise TypeError(f"settings: expected SolverSettings, got {type(settings).__name__}")
     _set_threads(threads)
 
-    if settings.resolved_method(n_elem) == "fft":
-        return _solve_path_fft(z1, k_tab, f_tab, step, g, d, settings, time, threads)
-
-    n_steps, n_lag = d.size, g.shape[2]
-    g0 = _lag_matrix(g, 0)
-    kern_t = np.ascontiguousarray(np.moveaxis(g, 2, 0))
-    # relative heights: z1 - z2 = (z1 - max z1) + d without cancellation of absolute heights
     gap0 = z1.ravel() - z1.max()
+    if settings.resolved_method(n_elem) == "fft":
+        operations = _fft_operations(k_tab, f_tab, step, g, settings, (nx, ny), threads)
+    else:
+        operations = _dense_operations(k_tab, f_tab, step, g, settings, (nx, ny), d.size)
+    return _march(gap0, d, time, (nx, ny), *operations)
 
+
+def _march(gap0, d, time, shape, history, solve, lag0) -> ContactResult:
+    """The time-stepping loop shared by the dense and the FFT paths.
+
+    Parameters
+    ----------
+    gap0 : numpy.ndarray
+        z1 - max z1 per element [m]: relative heights, so that z1 - z2 = gap0 + d has no
+        cancellation of absolute heights.
+    d, time : numpy.ndarray
+        Indentations [m] and times [s] (or None) of the steps.
+    shape : tuple of int
+        (nx, ny).
+    history : callable
+        ``history(n, f_hist) -> h`` [m], the displacement from lags 1 ... L-1 of the forces
+        f_hist[:n] of the earlier steps.
+    solve : callable
+        ``solve(n, d_n, b, zeta0) -> (zeta, f, iterations, residual, detail)``: the Newton solve
+        of step n (indentation d_n) of zeta - b + G0 F(zeta) = 0 from ``zeta0``; raises
+        ContactConvergenceError naming n, d_n and the residual.
+    lag0 : callable
+        ``lag0(n, f) -> G0 f`` [m]; called once per step with the step's converged forces.
+    """
+    nx, ny = shape
+    n_steps, n_elem = d.size, gap0.size
     f_hist = np.zeros((n_steps, n_elem))
     zeta_hist = np.zeros((n_steps, n_elem))
     w_hist = np.zeros((n_steps, n_elem))
-    nz_idx = np.zeros((n_steps, n_elem), dtype=np.int64)
-    nz_cnt = np.zeros(n_steps, dtype=np.int64)
+    contact_count = np.zeros(n_steps, dtype=np.int64)
     iterations = np.zeros(n_steps, dtype=np.int64)
     residual = np.zeros(n_steps)
-    h = np.zeros(n_elem)
 
     zeta = gap0.copy()
     b_prev = gap0.copy()
     report_every = max(1, n_steps // 10)
     for n in range(n_steps):
-        if n_lag > 1 and n > 0:
-            _history_sum(kern_t, f_hist, nz_idx, nz_cnt, n, nx, ny, h)
+        h = history(n, f_hist)
         b = (gap0 + d[n]) - h
         # warm start: previous solution shifted by the change of the free compression
-        zeta, f, _, it, res = _solve_step(b, zeta + (b - b_prev), g0, k_tab, f_tab, step, settings, n, d[n])
+        zeta, f, it, res, detail = solve(n, d[n], b, zeta + (b - b_prev))
         b_prev = b
-        loaded = np.flatnonzero(f)
         f_hist[n] = f
-        nz_idx[n, : loaded.size] = loaded
-        nz_cnt[n] = loaded.size
         zeta_hist[n] = zeta
-        w_hist[n] = h + g0[:, loaded] @ f[loaded]
+        w_hist[n] = h + lag0(n, f)
+        contact_count[n] = np.count_nonzero(f)
         iterations[n] = it
         residual[n] = res
         if n % report_every == 0 or n == n_steps - 1:
             logger.info(
-                "step %d/%d: d = %.4e m, F = %.5e N, %d elements in contact, %d Newton iterations",
-                n, n_steps - 1, d[n], f.sum(), loaded.size, it,
+                "step %d/%d: d = %.4e m, F = %.5e N, %d elements in contact, %s",
+                n, n_steps - 1, d[n], f.sum(), contact_count[n], detail,
             )
 
-    shape = (n_steps, nx, ny)
-    element_force = f_hist.reshape(shape)
+    shape3 = (n_steps, nx, ny)
     return ContactResult(
         time=None if time is None else np.asarray(time, dtype=float),
         indentation=d.copy(),
         force=f_hist.sum(axis=1),
-        element_force=element_force,
-        compression=zeta_hist.reshape(shape),
-        displacement=w_hist.reshape(shape),
-        contact_count=nz_cnt.copy(),
+        element_force=f_hist.reshape(shape3),
+        compression=zeta_hist.reshape(shape3),
+        displacement=w_hist.reshape(shape3),
+        contact_count=contact_count,
         newton_iterations=iterations,
         residual=residual,
     )
 
 
-def _solve_path_fft(z1, k_tab, f_tab, step, g, d, settings: SolverSettings, time, threads: int) -> ContactResult:
-    """:func:`solve_path` by FFT history sums and matrix-free Newton-Krylov steps.
+def _dense_operations(k_tab, f_tab, step, g, settings: SolverSettings, shape, n_steps):
+    """History, step solve and lag-0 product of the dense reference path (O(M^2 L) per step).
+
+    The history sum runs over the offset table and only over the elements that carried force
+    (recorded by ``lag0``); the step is a direct Newton solve on the loaded elements.
+    """
+    nx, ny = shape
+    n_elem = nx * ny
+    n_lag = g.shape[2]
+    g0 = _lag_matrix(g, 0)
+    kern_t = np.ascontiguousarray(np.moveaxis(g, 2, 0))
+    nz_idx = np.zeros((n_steps, n_elem), dtype=np.int64)
+    nz_cnt = np.zeros(n_steps, dtype=np.int64)
+    h = np.zeros(n_elem)
+
+    def history(n, f_hist):
+        if n_lag > 1 and n > 0:
+            _history_sum(kern_t, f_hist, nz_idx, nz_cnt, n, nx, ny, h)
+        return h.copy()
+
+    def solve(n, d_n, b, zeta0):
+        zeta, f, _, it, res = _solve_step(b, zeta0, g0, k_tab, f_tab, step, settings, n, d_n)
+        return zeta, f, it, res, f"{it} Newton iterations"
+
+    def lag0(n, f):
+        loaded = np.flatnonzero(f)
+        nz_idx[n, : loaded.size] = loaded
+        nz_cnt[n] = loaded.size
+        return g0[:, loaded] @ f[loaded]
+
+    return history, solve, lag0
+
+
+def _fft_operations(k_tab, f_tab, step, g, settings: SolverSettings, shape, threads: int):
+    """History, step solve and lag-0 product by FFT and matrix-free Newton-Krylov.
 
     Same equations as the dense path; the M x M lag matrices are never formed, so the memory is
-    O(M L) and the cost per step O(M log M L). Inputs are validated by :func:`solve_path`.
+    O(M L) and the cost per step O(M log M L).
     """
     from .convolution import (
         BlockJacobiPreconditioner,
@@ -674,76 +724,49 @@ def _solve_path_fft(z1, k_tab, f_tab, step, g, d, settings: SolverSettings, time
         solve_step_newton_krylov,
     )
 
-    nx, ny = z1.shape
+    nx, ny = shape
     n_elem = nx * ny
-    n_steps = d.size
-    conv = OffsetConvolution(g, (nx, ny), workers=max(1, int(threads)))
-    history = conv.history_accumulator()
+    conv = OffsetConvolution(g, shape, workers=max(1, int(threads)))
+    accumulator = conv.history_accumulator()
     precond = BlockJacobiPreconditioner(conv, settings.preconditioner_block)
     f_buf = np.empty(n_elem)
     k_buf = np.empty(n_elem)
+    logger.info("FFT/Newton-Krylov path: %d x %d elements, %d lags, padded grid %s", nx, ny, g.shape[2], conv.padded)
 
     def spring(zeta):
         _spring_eval(np.ascontiguousarray(zeta, dtype=float).ravel(), k_tab, f_tab, step, f_buf, k_buf)
         return f_buf.copy(), k_buf.copy()
 
-    gap0 = z1.ravel() - z1.max()
-    f_hist = np.zeros((n_steps, n_elem))
-    zeta_hist = np.zeros((n_steps, n_elem))
-    w_hist = np.zeros((n_steps, n_elem))
-    contact_count = np.zeros(n_steps, dtype=np.int64)
-    iterations = np.zeros(n_steps, dtype=np.int64)
-    krylov = np.zeros(n_steps, dtype=np.int64)
-    residual = np.zeros(n_steps)
-    zeta = gap0.copy()
-    b_prev = gap0.copy()
-    report_every = max(1, n_steps // 10)
-    logger.info("FFT/Newton-Krylov path: %d x %d elements, %d lags, padded grid %s", nx, ny, g.shape[2], conv.padded)
-    for n in range(n_steps):
-        h = history.history().ravel()
-        b = (gap0 + d[n]) - h
+    def history(n, f_hist):
+        return accumulator.history().ravel()
+
+    def solve(n, d_n, b, zeta0):
         try:
             sol = solve_step_newton_krylov(
-                b, zeta + (b - b_prev), spring, conv, settings.tolerance, settings.max_iterations,
-                preconditioner=precond,
+                b, zeta0, spring, conv, settings.tolerance, settings.max_iterations, preconditioner=precond
             )
         except KrylovConvergenceError as err:
             raise ContactConvergenceError(
-                f"contact step {n} did not converge (d = {d[n]:.6e} m): {err}"
+                f"contact step {n} did not converge (d = {d_n:.6e} m): {err}"
             ) from err
         if not sol.residual <= settings.tolerance:
             raise ContactConvergenceError(
-                f"contact step {n} did not converge (d = {d[n]:.6e} m): max|R| = {sol.residual:.3e} m "
-                f"> tolerance {settings.tolerance:.1e} m after {sol.newton_iterations} Newton iterations"
+                f"contact step {n} did not converge (d = {d_n:.6e} m): "
+                f"max|R| = {sol.residual:.3e} m > tolerance {settings.tolerance:.1e} m "
+                f"after {sol.newton_iterations} Newton iterations"
             )
-        f = np.asarray(sol.force, dtype=float).ravel()
-        zeta = np.asarray(sol.zeta, dtype=float).ravel()
-        history.push(f.reshape(nx, ny))
-        b_prev = b
-        f_hist[n] = f
-        zeta_hist[n] = zeta
-        w_hist[n] = h + conv.apply_lag(f.reshape(nx, ny), 0).ravel()
-        contact_count[n] = np.count_nonzero(f)
-        iterations[n] = sol.newton_iterations
-        krylov[n] = sol.krylov_iterations
-        residual[n] = sol.residual
-        if n % report_every == 0 or n == n_steps - 1:
-            logger.info(
-                "step %d/%d: d = %.4e m, F = %.5e N, %d elements in contact, %d Newton / %d Krylov iterations",
-                n, n_steps - 1, d[n], f.sum(), contact_count[n], sol.newton_iterations, sol.krylov_iterations,
-            )
-    shape = (n_steps, nx, ny)
-    return ContactResult(
-        time=None if time is None else np.asarray(time, dtype=float),
-        indentation=d.copy(),
-        force=f_hist.sum(axis=1),
-        element_force=f_hist.reshape(shape),
-        compression=zeta_hist.reshape(shape),
-        displacement=w_hist.reshape(shape),
-        contact_count=contact_count,
-        newton_iterations=iterations,
-        residual=residual,
-    )
+        detail = f"{sol.newton_iterations} Newton / {sol.krylov_iterations} Krylov iterations"
+        return (
+            np.asarray(sol.zeta, dtype=float).ravel(), np.asarray(sol.force, dtype=float).ravel(),
+            sol.newton_iterations, sol.residual, detail,
+        )
+
+    def lag0(n, f):
+        forces = f.reshape(nx, ny)
+        accumulator.push(forces)
+        return conv.apply_lag(forces, 0).ravel()
+
+    return history, solve, lag0
 
 
 def solve_dynamic(
