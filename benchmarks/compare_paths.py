@@ -17,7 +17,7 @@ import numpy as np
 from tyreroad import io
 from tyreroad.config import load_config
 from tyreroad.contact import SolverSettings, solve_run
-from tyreroad.pipeline import _material, resolved_material_config
+from tyreroad.material import material_from_config
 
 
 def main(results: Path) -> None:
@@ -29,7 +29,7 @@ def main(results: Path) -> None:
     worst = 0.0
     print(f"{'case':34s} {'max rel dF total':>17s} {'max rel dF_e':>13s} {'t dense [s]':>12s} {'t fft [s]':>10s}")
     for name in study["materials"]:
-        material = _material(name, resolved_material_config(name, config["materials"]))
+        material = material_from_config(name, config["materials"])
         springs = io.read_dataset(results / "springs" / study["surface"] / f"{name}.nc")
         greens = io.read_dataset(results / "greens" / f"{name}.nc")
         runs = [("quasistatic", 0.0)] + [("dynamic", float(a)) for a in study["accelerations"]]
