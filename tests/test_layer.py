@@ -278,8 +278,8 @@ def test_static_layer_factor_limits():
 @pytest.mark.parametrize(
     "kwargs, match",
     [
-        ({"k": -1.0}, "k must be"),
-        ({"omega": -1.0}, "omega must be"),
+        ({"k": -1.0}, "k: expected finite values >= 0"),
+        ({"omega": -1.0}, "omega: expected finite values >= 0"),
         ({"modulus": 1e6 - 1e5j}, "modulus"),
         ({"poisson": 0.5}, "poisson"),
         ({"density": 0.0}, "density"),

@@ -72,10 +72,13 @@ Lamb (1904), Phil. Trans. R. Soc. A 203, 1 (half-space, Rayleigh pole). doi:10.1
 from __future__ import annotations
 
 import cmath
+import logging
 import math
 
 import numpy as np
 from numba import njit, prange
+
+from . import checks
 
 __all__ = [
     "static_layer_factor",
@@ -83,7 +86,11 @@ __all__ = [
     "static_compliance",
     "halfspace_compliance",
     "backing_force_transfer",
+    "backing_kernel",
+    "backing_force",
 ]
+
+logger = logging.getLogger(__name__)
 
 # |z| below which sinh(z)/z is summed as a Taylor series (next term z^12/13! < 2e-22)
 _SHC_SERIES_LIMIT = 0.1
@@ -135,27 +142,6 @@ def static_layer_factor(x, poisson):
         num = sinh_minus_y_over_cosh + (2.0 - 4.0 * nu) * tanh
         den = a + (y**2 / 2.0 + 5.0 - 12.0 * nu + 8.0 * nu**2) * sech
     return num / den
-
-
-def _validate_poisson(poisson):
-    nu = float(poisson)
-    if not (0.0 < nu < 0.5):
-        raise ValueError(f"poisson ratio must lie in (0, 0.5), got {poisson!r}")
-    return nu
-
-
-def _positive(name, value):
-    v = float(value)
-    if not (np.isfinite(v) and v > 0.0):
-        raise ValueError(f"{name} must be a positive finite number, got {value!r}")
-    return v
-
-
-def _nonnegative_array(name, value):
-    arr = np.asarray(value, dtype=float)
-    if np.any(~np.isfinite(arr)) or np.any(arr < 0):
-        raise ValueError(f"{name} must be finite and >= 0")
-    return arr
 
 
 def _modulus_array(modulus):
@@ -332,11 +318,11 @@ def compliance(k, omega, modulus, poisson, density, thickness):
     Hayes, Keer, Herrmann & Mockros (1972), J. Biomech. 5, 541-551.
     doi:10.1016/0021-9290(72)90010-3
     """
-    nu = _validate_poisson(poisson)
-    rho = _positive("density", density)
-    h = _positive("thickness", thickness)
-    k = _nonnegative_array("k", k)
-    omega = _nonnegative_array("omega", omega)
+    nu = checks.poisson_ratio(poisson, allow_zero=False)
+    rho = checks.real("density", density, positive=True)
+    h = checks.real("thickness", thickness, positive=True)
+    k = checks.nonnegative_array("k", k)
+    omega = checks.nonnegative_array("omega", omega)
     e = _modulus_array(modulus)
     k, omega, e = np.broadcast_arrays(k, omega, e)
     mu, _ = _moduli(e, nu)
@@ -373,9 +359,9 @@ def static_compliance(k, modulus, poisson, thickness):
     Hayes, Keer, Herrmann & Mockros (1972), J. Biomech. 5, 541-551.
     doi:10.1016/0021-9290(72)90010-3
     """
-    nu = _validate_poisson(poisson)
-    h = _positive("thickness", thickness)
-    k = _nonnegative_array("k", k)
+    nu = checks.poisson_ratio(poisson, allow_zero=False)
+    h = checks.real("thickness", thickness, positive=True)
+    k = checks.nonnegative_array("k", k)
     e = np.asarray(modulus)
     if np.any(~np.isfinite(e)) or np.any(np.real(e) <= 0):
         raise ValueError("modulus must be finite with a positive real part")
@@ -415,10 +401,10 @@ def halfspace_compliance(k, omega, modulus, poisson, density):
     ----------
     Lamb (1904), Phil. Trans. R. Soc. A 203, 1. doi:10.1098/rsta.1904.0013
     """
-    nu = _validate_poisson(poisson)
-    rho = _positive("density", density)
-    k = _nonnegative_array("k", k)
-    omega = _nonnegative_array("omega", omega)
+    nu = checks.poisson_ratio(poisson, allow_zero=False)
+    rho = checks.real("density", density, positive=True)
+    k = checks.nonnegative_array("k", k)
+    omega = checks.nonnegative_array("omega", omega)
     e = _modulus_array(modulus)
     k, omega, e = np.broadcast_arrays(k, omega, e)
     mu, _ = _moduli(e, nu)
@@ -445,7 +431,9 @@ def backing_force_transfer(omega, modulus, poisson, density, thickness):
 
     The total surface force is the k = 0 component of the pressure; for k = 0 the layer is a 1-D
     constrained rod, u(z) ∝ sin(kappa (h - z)), kappa = w / c_p, c_p = sqrt(M / rho), so the stress at the
-    base over the stress at the surface is 1 / cos(kappa h) (-> 1 at w = 0).
+    base over the stress at the surface is 1 / cos(kappa h) (-> 1 at w = 0), and for small damping
+    |T| peaks at the quarter-wave resonance f = c_p / (4 h). Evaluated as
+    2 exp(-i theta) / (1 + exp(-2 i theta)), theta = kappa h with Im theta <= 0, which cannot overflow.
 
     Parameters
     ----------
@@ -460,12 +448,112 @@ def backing_force_transfer(omega, modulus, poisson, density, thickness):
     -------
     numpy.ndarray of complex
         Transfer ratio [-].
+
+    Raises
+    ------
+    ValueError
+        If T is infinite: an undamped quarter-wave resonance lies on the frequency grid.
     """
-    nu = _validate_poisson(poisson)
-    rho = _positive("density", density)
-    h = _positive("thickness", thickness)
-    omega = _nonnegative_array("omega", omega)
+    nu = checks.poisson_ratio(poisson, allow_zero=False)
+    rho = checks.real("density", density, positive=True)
+    h = checks.real("thickness", thickness, positive=True)
+    omega = checks.nonnegative_array("omega", omega)
     e = _modulus_array(modulus)
     _, m = _moduli(e, nu)
     c_p = np.sqrt(m / rho)
-    return (1.0 / np.cos(omega * h / c_p))[()]
+    q = np.exp(-1j * (omega * h / c_p))
+    t = 2.0 * q / (1.0 + q * q)
+    if not np.all(np.isfinite(t)):
+        raise ValueError(
+            "backing_force_transfer: T(omega) is infinite (an undamped quarter-wave resonance lies on the "
+            "frequency grid); the material needs a loss factor > 0"
+        )
+    return t[()]
+
+
+def _material_transfer(omega, material) -> np.ndarray:
+    """:func:`backing_force_transfer` of a material object (modulus(omega), poisson, density, thickness)."""
+    w = checks.nonnegative_array("omega", omega)
+    return backing_force_transfer(w, material.modulus(w), material.poisson, material.density, material.thickness)
+
+
+def backing_kernel(material, sample_rate: float, n_fft: int = 4096, n_alias: int = 32) -> np.ndarray:
+    """Causal discrete impulse response c[l] from surface force samples to backing force [1].
+
+    The force series is read as piecewise linear in time (first-order hold), so that
+    backing(t_n) = sum_l c[l] F[n - l] holds exactly for such a force, with
+    c[l] = integral of the continuous impulse response against the hat function around l dt.
+    Its spectrum is the aliased sum C(omega) = sum_k T(omega + k omega_s) sinc^2((omega + k omega_s) dt / 2),
+    evaluated for |k| <= n_alias and inverse-transformed with irfft on n_fft points. Because the
+    continuous response is causal, c is causal (up to the alias truncation, logged), and
+    sum_l c[l] = C(0) = T(0) = 1 exactly.
+
+    A plain ``irfft(T)`` is not used: T does not decay towards fs/2 for a stiffening tread, so its
+    band-limited impulse response has a sinc precursor at negative times that carries about 20 %
+    of the static gain and would be lost in a causal convolution.
+
+    Parameters
+    ----------
+    material : Material
+        Provides ``modulus(omega)`` [Pa] (complex, exp(+i omega t)), ``poisson``, ``density``
+        [kg/m^3], ``thickness`` [m].
+    sample_rate : float
+        fs [Hz].
+    n_fft : int
+        FFT length, >= 4096 (the period n_fft / fs must exceed the response's duration).
+    n_alias : int
+        Aliases summed on each side.
+
+    Returns
+    -------
+    numpy.ndarray
+        c[0 ... n_fft - 1] [1].
+    """
+    fs = checks.real("sample_rate", sample_rate, positive=True)
+    n_fft = checks.integer("n_fft", n_fft, minimum=4096)
+    freq = np.fft.rfftfreq(n_fft, 1.0 / fs)
+    spectrum = np.zeros(freq.size, dtype=complex)
+    for k in range(-n_alias, n_alias + 1):
+        f_k = freq + k * fs
+        t_k = _material_transfer(2 * np.pi * np.abs(f_k), material)
+        t_k = np.where(f_k < 0, np.conj(t_k), t_k)
+        spectrum += t_k * np.sinc(f_k / fs) ** 2
+    c = np.fft.irfft(spectrum, n_fft)
+    tail = c[n_fft // 2 :]
+    precursor = float(np.sum(tail**2) / np.sum(c**2))
+    logger.info(
+        "backing kernel: n_fft = %d, c[0] = %.4f, energy in the second half (precursor/wrap-around) %.2e",
+        n_fft, c[0], precursor,
+    )
+    return c
+
+
+def backing_force(total_force, material, sample_rate: float, n_fft: int = 4096) -> np.ndarray:
+    """Total force at the rigid backing of the layer [N].
+
+    The total surface force, read as piecewise linear between samples, convolved causally with
+    the k = 0 layer transfer T(omega) = 1 / cos(omega h / c_p(omega)) (:func:`backing_kernel`).
+    T(0) = 1, so for a slowly varying force the backing force equals the surface force (and for
+    quasi-static runs it is set equal to it).
+
+    Parameters
+    ----------
+    total_force : array_like
+        Surface force samples F[n] [N] at t_n = n / fs, starting from rest (F = 0 before n = 0).
+    material : Material
+        Layer material.
+    sample_rate : float
+        fs [Hz].
+    n_fft : int
+        Minimum FFT length (>= 4096); increased to at least twice the series length.
+
+    Returns
+    -------
+    numpy.ndarray
+        Backing force [N], same length as ``total_force``.
+    """
+    f = checks.finite_array("total_force", total_force, ndim=1)
+    n_fft = checks.integer("n_fft", n_fft, minimum=4096)
+    size = max(n_fft, 1 << int(math.ceil(math.log2(max(2 * f.size, 2)))))
+    c = backing_kernel(material, sample_rate, size)
+    return np.convolve(f, c[: f.size])[: f.size]

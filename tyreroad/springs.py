@@ -50,8 +50,7 @@ References
 Hayes, W. C., Keer, L. M., Herrmann, G., & Mockros, L. F. (1972). A mathematical analysis for
 indentation tests of articular cartilage. J. Biomech. 5(5), 541-551.
 doi:10.1016/0021-9290(72)90010-3
-Winroth, J., Andersson, P. B. U., & Kropp, W. (2014). Importance of tread inertia and damping on
-the tyre/road contact stiffness. J. Sound Vib. 333(21), 5378-5385. doi:10.1016/j.jsv.2014.05.020
+The seed study: :data:`tyreroad.SEED_REFERENCE`.
 """
 
 from __future__ import annotations
@@ -69,7 +68,9 @@ import xarray as xr
 from numba import njit
 from scipy.interpolate import CubicSpline
 
+from . import checks
 from .layer import static_layer_factor
+from .surface import element_samples
 
 logger = logging.getLogger(__name__)
 
@@ -199,7 +200,7 @@ def punch_factor(ratio, poisson: float) -> np.ndarray:
     for indentation tests of articular cartilage. J. Biomech. 5(5), 541-551.
     doi:10.1016/0021-9290(72)90010-3
     """
-    nu = _check_poisson(poisson)
+    nu = checks.poisson_ratio(poisson, allow_half=True)
     lam = np.asarray(ratio, dtype=float)
     if not np.all(np.isfinite(lam)) or np.any(lam < 0):
         raise ValueError(f"punch_factor: ratio a/h must be finite and >= 0, got min {np.min(lam)}")
@@ -221,30 +222,9 @@ def punch_factor(ratio, poisson: float) -> np.ndarray:
     return out
 
 
-def _check_poisson(poisson) -> float:
-    if isinstance(poisson, bool) or not isinstance(poisson, numbers.Real):
-        raise TypeError(f"poisson must be a number, got {poisson!r}")
-    nu = float(poisson)
-    if not 0.0 <= nu <= 0.5:
-        raise ValueError(f"poisson must lie in [0, 0.5], got {nu}")
-    return nu
-
-
 # --------------------------------------------------------------------------------------------
 # Configuration
 # --------------------------------------------------------------------------------------------
-def _positive_number(section: str, key: str, value: Any) -> float:
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        hint = ""
-        if isinstance(value, str):
-            hint = " (YAML 1.1 reads a mantissa-exponent without sign, e.g. 1.0e5, as text: write 1.0e+5)"
-        raise TypeError(f"{section}.{key} must be a number, got {value!r}{hint}")
-    x = float(value)
-    if not math.isfinite(x) or x <= 0:
-        raise ValueError(f"{section}.{key} must be a finite number > 0, got {value!r}")
-    return x
-
-
 @dataclass(frozen=True)
 class SpringModel:
     """The element spring model of the study (config section ``springs``).
@@ -275,8 +255,8 @@ class SpringModel:
         s = "springs"
         if self.model not in SPRING_MODELS:
             raise ValueError(f"{s}.model must be one of {', '.join(SPRING_MODELS)}; got {self.model!r}")
-        zmax = _positive_number(s, "zeta_max", self.zeta_max)
-        step = _positive_number(s, "zeta_step", self.zeta_step)
+        zmax = checks.real(f"{s}.zeta_max", self.zeta_max, positive=True)
+        step = checks.real(f"{s}.zeta_step", self.zeta_step, positive=True)
         if zmax < 1.0e-3 * (1 - 1e-12):
             raise ValueError(f"{s}.zeta_max must be >= 1e-3 m (SPEC 4), got {zmax:g} m")
         if step > 1.0e-6 * (1 + 1e-12):
@@ -297,10 +277,10 @@ class SpringModel:
                     f"{s}.modulus must be 'quasi_static' or a number in Pa, got {self.modulus!r}"
                 )
         else:
-            object.__setattr__(self, "modulus", _positive_number(s, "modulus", self.modulus))
+            object.__setattr__(self, "modulus", checks.real(f"{s}.modulus", self.modulus, positive=True))
         object.__setattr__(self, "zeta_max", zmax)
         object.__setattr__(self, "zeta_step", step)
-        object.__setattr__(self, "linear_stiffness", _positive_number(s, "linear_stiffness", self.linear_stiffness))
+        object.__setattr__(self, "linear_stiffness", checks.real(f"{s}.linear_stiffness", self.linear_stiffness, positive=True))
 
     @classmethod
     def from_config(cls, section: Mapping[str, Any] | None) -> "SpringModel":
@@ -347,13 +327,41 @@ def resolve_spring_modulus(spring_model: SpringModel, quasi_static_modulus: floa
     if not isinstance(spring_model, SpringModel):
         raise TypeError(f"spring_model must be a SpringModel, got {type(spring_model).__name__}")
     if spring_model.modulus == "quasi_static":
-        return _positive_number("material", "quasi_static_modulus", quasi_static_modulus)
+        return checks.real("material.quasi_static_modulus", quasi_static_modulus, positive=True)
     return float(spring_model.modulus)
 
 
 # --------------------------------------------------------------------------------------------
 # Interpolation contract
 # --------------------------------------------------------------------------------------------
+@njit(cache=True)
+def _spring_eval(zeta, rows, stiffness, force, zeta_step, f_out, k_out):  # pragma: no cover - numba
+    """F and k of the spring of table row ``rows[i]`` at compression ``zeta[i]`` (the contract)."""
+    n_zeta = stiffness.shape[1]
+    last = n_zeta - 1
+    zeta_last = last * zeta_step
+    for i in range(zeta.size):
+        m = rows[i]
+        z = zeta[i]
+        if z <= 0.0:
+            f_out[i] = 0.0
+            k_out[i] = 0.0
+        elif z >= zeta_last:
+            k = stiffness[m, last]
+            k_out[i] = k
+            f_out[i] = force[m, last] + k * (z - zeta_last)
+        else:
+            u = z / zeta_step
+            j = int(u)
+            if j > last - 1:
+                j = last - 1
+            t = u - j
+            k0 = stiffness[m, j]
+            slope = stiffness[m, j + 1] - k0
+            k_out[i] = k0 + slope * t
+            f_out[i] = force[m, j] + zeta_step * t * (k0 + 0.5 * slope * t)
+
+
 def evaluate(zeta, zeta_step: float, stiffness_table, force_table) -> tuple[np.ndarray, np.ndarray]:
     """Spring force and stiffness at arbitrary compressions (the interpolation contract).
 
@@ -378,9 +386,7 @@ def evaluate(zeta, zeta_step: float, stiffness_table, force_table) -> tuple[np.n
         k(zeta) = dF/dzeta [N/m]: 0 for zeta <= 0, linear inside a cell, k_last beyond the grid.
         Shape of both: broadcast of ``zeta`` with ``stiffness_table.shape[:-1]``.
     """
-    step = float(zeta_step)
-    if not math.isfinite(step) or step <= 0:
-        raise ValueError(f"evaluate: zeta_step must be a finite number > 0, got {zeta_step!r}")
+    step = checks.real("evaluate: zeta_step", zeta_step, positive=True)
     k_tab = np.asarray(stiffness_table, dtype=float)
     f_tab = np.asarray(force_table, dtype=float)
     if k_tab.shape != f_tab.shape or k_tab.ndim < 1 or k_tab.shape[-1] < 2:
@@ -391,27 +397,16 @@ def evaluate(zeta, zeta_step: float, stiffness_table, force_table) -> tuple[np.n
     z = np.asarray(zeta, dtype=float)
     if np.any(np.isnan(z)):
         raise ValueError("evaluate: zeta contains NaN")
+    lead = k_tab.shape[:-1]
+    shape = np.broadcast_shapes(z.shape, lead)
+    rows = np.broadcast_to(np.arange(math.prod(lead)).reshape(lead), shape).ravel()
+    z_flat = np.ascontiguousarray(np.broadcast_to(z, shape).ravel())
     n = k_tab.shape[-1]
-    shape = np.broadcast_shapes(z.shape, k_tab.shape[:-1])
-    z = np.broadcast_to(z, shape)
-    k_b = np.broadcast_to(k_tab, shape + (n,))
-    f_b = np.broadcast_to(f_tab, shape + (n,))
-    u = z / step
-    j = np.clip(np.floor(np.where(np.isfinite(u), u, 0.0)), 0, n - 2).astype(np.intp)
-    t = np.clip(u - j, 0.0, 1.0)
-    k0 = np.take_along_axis(k_b, j[..., None], -1)[..., 0]
-    k1 = np.take_along_axis(k_b, j[..., None] + 1, -1)[..., 0]
-    f0 = np.take_along_axis(f_b, j[..., None], -1)[..., 0]
-    slope = k1 - k0
-    k = k0 + slope * t
-    f = f0 + step * t * (k0 + 0.5 * slope * t)
-    beyond = u > n - 1
-    k_last = k_b[..., -1]
-    f_beyond = f_b[..., -1] + k_last * (z - (n - 1) * step)
-    k = np.where(beyond, k_last, k)
-    f = np.where(beyond, f_beyond, f)
-    inactive = z <= 0
-    return np.where(inactive, 0.0, f), np.where(inactive, 0.0, k)
+    f_out = np.empty(z_flat.size)
+    k_out = np.empty(z_flat.size)
+    _spring_eval(z_flat, rows, np.ascontiguousarray(k_tab.reshape(-1, n)),
+                 np.ascontiguousarray(f_tab.reshape(-1, n)), step, f_out, k_out)
+    return f_out.reshape(shape), k_out.reshape(shape)
 
 
 @dataclass(frozen=True)
@@ -436,25 +431,84 @@ class SpringTable:
     def from_dataset(cls, ds: xr.Dataset) -> "SpringTable":
         """Tables of a springs dataset, shape (ex, ey, zeta)."""
         zeta = ds["zeta"].values
+        if zeta.size < 2 or zeta[0] != 0.0 or not np.allclose(np.diff(zeta), zeta[1] - zeta[0], rtol=1e-9, atol=0):
+            raise ValueError("springs dataset: zeta must be a uniform grid starting at 0")
         step = float(zeta[1] - zeta[0])
         k = ds["stiffness"].transpose("ex", "ey", "zeta").values
         f = ds["force"].transpose("ex", "ey", "zeta").values
         return cls(step, k, f)
 
+    @classmethod
+    def checked(cls, stiffness, force, zeta_step, n_elements: int) -> "SpringTable":
+        """Validated tables of ``n_elements`` springs as C-contiguous (M, n_zeta) arrays.
+
+        Parameters
+        ----------
+        stiffness, force : array_like
+            k [N/m] and F [N] on zeta_j = j * zeta_step, shape (M, n_zeta) or (nx, ny, n_zeta).
+        zeta_step : float
+            Grid step [m].
+        n_elements : int
+            M, the number of springs expected.
+
+        Raises
+        ------
+        ValueError
+            For a wrong shape, non-finite or negative values, or a force table that is not the
+            cumulative trapezoid of the stiffness (the Newton Jacobian would not be dF/dzeta).
+        """
+        step = checks.real("zeta_step", zeta_step, positive=True)
+        k_tab = np.asarray(stiffness, dtype=float)
+        f_tab = np.asarray(force, dtype=float)
+        if k_tab.shape != f_tab.shape:
+            raise ValueError(f"spring tables: stiffness {k_tab.shape} and force {f_tab.shape} differ in shape")
+        if k_tab.ndim == 3:
+            k_tab = k_tab.reshape(-1, k_tab.shape[-1])
+            f_tab = f_tab.reshape(-1, f_tab.shape[-1])
+        if k_tab.ndim != 2 or k_tab.shape[0] != n_elements or k_tab.shape[1] < 2:
+            raise ValueError(
+                f"spring tables: expected shape ({n_elements}, n_zeta) or (nx, ny, n_zeta) with n_zeta >= 2, "
+                f"got {np.shape(stiffness)}"
+            )
+        if not (np.all(np.isfinite(k_tab)) and np.all(np.isfinite(f_tab))):
+            raise ValueError("spring tables: stiffness/force contain NaN or infinite values")
+        if np.any(k_tab < 0):
+            raise ValueError("spring tables: stiffness must be >= 0 [N/m]")
+        expected = _cumulative_trapezoid(k_tab, step)
+        scale = max(float(np.max(np.abs(expected))), np.finfo(float).tiny)
+        mismatch = float(np.max(np.abs(f_tab - expected)))
+        if mismatch > 1e-9 * scale:
+            raise ValueError(
+                "spring tables: force is not the cumulative trapezoid of stiffness on the zeta grid "
+                f"(max mismatch {mismatch:.3e} N, {mismatch / scale:.2e} of the largest force)"
+            )
+        return cls(step, np.ascontiguousarray(k_tab), np.ascontiguousarray(f_tab))
+
+    @property
+    def n_springs(self) -> int:
+        """Number of springs (product of the leading table dimensions)."""
+        return math.prod(self.stiffness.shape[:-1])
+
     def evaluate(self, zeta) -> tuple[np.ndarray, np.ndarray]:
         """(F [N], k [N/m]) at compressions ``zeta`` [m]; see :func:`evaluate`."""
         return evaluate(zeta, self.zeta_step, self.stiffness, self.force)
+
+    def evaluate_into(self, zeta: np.ndarray, force_out: np.ndarray, stiffness_out: np.ndarray) -> None:
+        """F and k of every spring at ``zeta`` [m], shape (M,), written into the given (M,) arrays.
+
+        The allocation-free form used inside Newton iterations; the tables must be (M, n_zeta)
+        and C-contiguous (as :meth:`checked` makes them).
+        """
+        _spring_eval(zeta, self._rows, self.stiffness, self.force, self.zeta_step, force_out, stiffness_out)
+
+    @functools.cached_property
+    def _rows(self) -> np.ndarray:
+        return np.arange(self.n_springs)
 
 
 # --------------------------------------------------------------------------------------------
 # Element springs
 # --------------------------------------------------------------------------------------------
-def _element_samples(height: np.ndarray, n: int) -> np.ndarray:
-    """Samples of each element, shape (ex, ey, n * n), row-major inside the element."""
-    nx, ny = height.shape
-    return height.reshape(nx // n, n, ny // n, n).transpose(0, 2, 1, 3).reshape(nx // n, ny // n, n * n)
-
-
 def contact_counts(depth: np.ndarray, zeta: np.ndarray) -> np.ndarray:
     """Number of samples in contact, #{p : depth_p <= zeta_j}, for every element and grid point.
 
@@ -573,21 +627,15 @@ def punch_stiffness(area, spring_modulus: float, poisson: float, thickness: floa
     Hayes, W. C., Keer, L. M., Herrmann, G., & Mockros, L. F. (1972). J. Biomech. 5(5), 541-551.
     doi:10.1016/0021-9290(72)90010-3
     """
-    e_s = _positive_number("punch_stiffness", "spring_modulus", spring_modulus)
-    nu = _check_poisson(poisson)
-    h = _check_thickness(thickness)
+    e_s = checks.real("punch_stiffness.spring_modulus", spring_modulus, positive=True)
+    nu = checks.poisson_ratio(poisson, allow_half=True)
+    h = checks.real("thickness", thickness, positive=True, finite=False)
     area = np.asarray(area, dtype=float)
     if not np.all(np.isfinite(area)) or np.any(area < 0):
         raise ValueError("punch_stiffness: area must be finite and >= 0")
     radius = np.sqrt(area / np.pi)
     ratio = radius / h if math.isfinite(h) else np.zeros_like(radius)
     return 2.0 * e_s / (1.0 - nu * nu) * punch_factor(ratio, nu) * radius
-
-
-def _check_thickness(thickness) -> float:
-    if isinstance(thickness, bool) or not isinstance(thickness, numbers.Real) or not float(thickness) > 0:
-        raise ValueError(f"thickness must be > 0 m (or inf for a half-space), got {thickness!r}")
-    return float(thickness)
 
 
 def _cumulative_trapezoid(k: np.ndarray, step: float) -> np.ndarray:
@@ -674,14 +722,15 @@ def element_springs(
     """
     if not isinstance(spring_model, SpringModel):
         raise TypeError(f"spring_model must be a SpringModel, got {type(spring_model).__name__}")
-    e_s = _positive_number("element_springs", "modulus", modulus)
-    nu = _check_poisson(poisson)
-    h = _check_thickness(thickness)
+    e_s = checks.real("element_springs.modulus", modulus, positive=True)
+    nu = checks.poisson_ratio(poisson, allow_half=True)
+    h = checks.real("thickness", thickness, positive=True, finite=False)
     height, n, dx = _check_surface(surface_ds)
     t0 = time.perf_counter()
 
     zeta = spring_model.zeta_grid()
-    samples = _element_samples(height, n)
+    samples = element_samples(height, n)
+    samples = samples.reshape(samples.shape[0], samples.shape[1], n * n)
     n_ex, n_ey = samples.shape[:2]
     depth = samples.max(axis=-1, keepdims=True) - samples
     counts = contact_counts(depth, zeta)
