@@ -65,7 +65,20 @@ class Springs:
 
     def __call__(self, zeta):
         z = np.maximum(zeta, 0.0)
-        return self.k0 * (z + 0.5 * z * z / self.zs), np.where(zeta > 0, self.k0 * (1.0 + z / self.zs), 0.0)
+        k0 = self.k0.reshape(np.shape(zeta))
+        return k0 * (z + 0.5 * z * z / self.zs), np.where(zeta > 0, k0 * (1.0 + z / self.zs), 0.0)
+
+    def evaluate_into(self, zeta, force_out, stiffness_out):
+        """The springs protocol of tyreroad.newton.solve_step (flat arrays)."""
+        force_out[:], stiffness_out[:] = self(zeta)
+
+
+def nk_step(rhs, zeta0, springs, conv, tol=1e-12, max_iter=50, block=4, substrate=None):
+    """One matrix-free Newton step through the package's driver (FFT substrate)."""
+    from tyreroad.newton import FFTSubstrate, solve_step
+
+    substrate = substrate or FFTSubstrate(conv, tol, block=block)
+    return solve_step(np.ravel(rhs), np.ravel(zeta0), springs, substrate, tol, max_iter)
 
 
 def _median_time(fn, repeats: int) -> float:
@@ -99,7 +112,9 @@ def _dense_history_kernel():
 
 
 def bench_size(nx: int, ny: int, threads: int) -> None:
-    from tyreroad.convolution import BlockJacobiPreconditioner, OffsetConvolution, solve_step_newton_krylov
+    from tyreroad.convolution import OffsetConvolution
+    from tyreroad.history import FFTHistory
+    from tyreroad.newton import FFTSubstrate
 
     rng = np.random.default_rng(0)
     m = nx * ny
@@ -112,17 +127,23 @@ def bench_size(nx: int, ny: int, threads: int) -> None:
     t0 = time.perf_counter()
     conv = OffsetConvolution(g, (nx, ny), workers=threads)
     t_build = time.perf_counter() - t0
-    acc = conv.history_accumulator()
+    acc = FFTHistory(conv)
     print(f"FFT grid {conv.padded}, kernel spectra {conv.nbytes / 2**20:.1f} MiB, "
           f"ring {acc.nbytes / 2**20:.1f} MiB, build {t_build:.2f} s")
 
     # --- history with a full ring -------------------------------------------------------------
     depth = N_LAGS - 1
     f_ring = rng.uniform(0.0, 5.0, (depth, nx, ny)) * (rng.random((depth, nx, ny)) < 0.5)
-    t_push = _median_time(lambda: acc.push(f_ring[acc.steps_pushed % depth]), depth)
-    acc.history()  # numba compile / warm-up
+    pushed = [0]
+
+    def push():
+        acc.record(pushed[0], f_ring[pushed[0] % depth])
+        pushed[0] += 1
+
+    t_push = _median_time(push, depth)
+    acc.displacement(depth)  # numba compile / warm-up
     reps = 20 if m <= 6400 else 7
-    t_hist = _median_time(acc.history, reps)
+    t_hist = _median_time(lambda: acc.displacement(depth), reps)
     print(f"history (full ring, {depth} lags): FFT {t_hist * 1e3:.2f} ms, push {t_push * 1e3:.2f} ms")
 
     dense_budget = {400: 5, 1600: 3, 6400: 1}
@@ -134,17 +155,17 @@ def bench_size(nx: int, ny: int, threads: int) -> None:
         dense_history = _dense_history_kernel()
         dense_history(kern[:2, :2, :2], f_slots[:1, :1, :1], 0, 1, out[:1, :1])
         t_dense = _median_time(lambda: dense_history(kern, f_slots, 0, depth, out), dense_budget[m])
-        err = np.max(np.abs(acc.history() - out)) / np.max(np.abs(out))
+        err = np.max(np.abs(acc.displacement(depth) - out.ravel())) / np.max(np.abs(out))
         print(f"history dense direct sum (M^2 L): {t_dense * 1e3:.1f} ms -> FFT speed-up {t_dense / t_hist:.0f}x "
               f"(max rel. difference {err:.1e})")
     else:
         print("history dense direct sum: skipped (M^2 L = %.1e multiply-adds)" % (m * m * depth))
 
     # --- one synthetic step: Newton-Krylov vs dense Newton -------------------------------------
-    acc2 = conv.history_accumulator()
+    acc2 = FFTHistory(conv)
     rhs = z1 + 1.5e-4
-    sol = solve_step_newton_krylov(rhs, rhs, springs, conv, tol=1e-12, max_iter=50)
-    t_nk = _median_time(lambda: solve_step_newton_krylov(rhs, rhs, springs, conv, tol=1e-12, max_iter=50), 3)
+    sol = nk_step(rhs, rhs, springs, conv)
+    t_nk = _median_time(lambda: nk_step(rhs, rhs, springs, conv), 3)
     print(f"cold step (d = 0.15 mm, no history, {np.mean(sol.zeta > 0) * 100:.0f} % in contact): "
           f"Newton-Krylov {t_nk * 1e3:.1f} ms, {sol.newton_iterations} Newton / {sol.krylov_iterations} Krylov, "
           f"|R| = {sol.residual:.1e} m")
@@ -164,7 +185,7 @@ def bench_size(nx: int, ny: int, threads: int) -> None:
         counts = []
         for block in (1, 2, 4, 8):
             t0 = time.perf_counter()
-            s = solve_step_newton_krylov(rhs, rhs, springs, conv_k, tol=1e-12, max_iter=50, block=block)
+            s = nk_step(rhs, rhs, springs, conv_k, block=block)
             counts.append(f"b={block}: {s.newton_iterations}N/{s.krylov_iterations}K {1e3 * (time.perf_counter() - t0):.0f} ms")
         print(f"cold step, {name}: " + "; ".join(counts))
         del conv_k
@@ -173,20 +194,19 @@ def bench_size(nx: int, ny: int, threads: int) -> None:
     n_steps = N_LAGS + 45 if m <= 6400 else N_LAGS + 20
     accel = 2.0 * D_MAX * SAMPLE_RATE**2 / (n_steps - 1) ** 2
     d = 0.5 * accel * (np.arange(n_steps) / SAMPLE_RATE) ** 2
-    gap0 = z1 - z1.max()
+    gap0 = (z1 - z1.max()).ravel()
     zeta = gap0.copy()
     b_prev = gap0.copy()
-    pre = BlockJacobiPreconditioner(conv, 4)
+    substrate = FFTSubstrate(conv, 1e-12, block=4)
     step_t, step_cpu, hist_t, newton, krylov = [], [], [], [], []
     t_run = time.perf_counter()
     for n in range(n_steps):
         t0, c0 = time.perf_counter(), time.process_time()
-        h = acc2.history()
+        h = acc2.displacement(n)
         hist_t.append(time.perf_counter() - t0)
         b = gap0 + d[n] - h
-        sol = solve_step_newton_krylov(b, zeta + (b - b_prev), springs, conv, tol=1e-12, max_iter=50,
-                                       preconditioner=pre)
-        acc2.push(sol.force)
+        sol = nk_step(b, zeta + (b - b_prev), springs, conv, substrate=substrate)
+        acc2.record(n, sol.force)
         step_t.append(time.perf_counter() - t0)
         step_cpu.append(time.process_time() - c0)
         zeta, b_prev = sol.zeta, b

@@ -11,20 +11,20 @@ import numpy as np
 import pytest
 from scipy.integrate import quad
 
-from tyreroad import contact
+from tyreroad import contact, newton
 from tyreroad.contact import (
     ContactConvergenceError,
     SolverSettings,
-    backing_force,
     contact_dataset,
-    dense_history_sum,
-    evaluate_springs,
-    layer_transfer_k0,
     solve_dynamic,
     solve_path,
     solve_quasistatic,
 )
+from tyreroad.history import DenseHistory
+from tyreroad.layer import backing_force, backing_force_transfer
 from tyreroad.reference import sdof
+from tyreroad.reference.dense import dense_history_sum, lag_matrix
+from tyreroad.springs import SpringTable, evaluate
 
 E_STAR = 3.3e7  # Pa, plane-strain modulus of a ~25 MPa tread (nu = 0.49)
 ELEMENT = 1e-3  # m
@@ -78,6 +78,16 @@ def realistic_kernel(nx: int, ny: int, n_lag: int, fs: float = 51200.0):
     shape = np.where(lag >= start[..., None], np.exp(-(lag - arrival[..., None]) / 8.0), 0.0)
     shape /= shape.sum(axis=2, keepdims=True)
     return g_static[..., None] * shape, g_static
+
+
+def evaluate_springs(zeta, k_tab, f_tab, step):
+    """The package's spring evaluation (numba kernel) for one zeta per table row."""
+    return evaluate(zeta, step, k_tab, f_tab)
+
+
+def layer_transfer_k0(omega, mat):
+    """k = 0 transfer of a material object (tyreroad.layer.backing_force_transfer)."""
+    return backing_force_transfer(omega, mat.modulus(omega), mat.poisson, mat.density, mat.thickness)
 
 
 def spring_reference(zeta, k_tab, f_tab, step, rows=None):
@@ -183,7 +193,9 @@ def test_spring_evaluation_matches_numpy_contract():
 def test_spring_tables_must_be_consistent():
     k, f, step = linear_tables(1e4)
     with pytest.raises(ValueError, match="cumulative trapezoid"):
-        evaluate_springs([1e-5], k, 1.5 * f, step)
+        SpringTable.checked(k, 1.5 * f, step, 1)
+    with pytest.raises(ValueError, match="zeta_step"):
+        SpringTable.checked(k, f, 0.0, 1)
     with pytest.raises(ValueError, match="zeta_step"):
         evaluate_springs([1e-5], k, f, 0.0)
 
@@ -275,21 +287,18 @@ def test_one_lag_dynamic_equals_quasistatic():
 
 
 def test_fast_history_equals_dense_sum():
+    """DenseHistory (ring of L - 1 steps, loaded elements only) against dense matrices and a loop."""
     rng = np.random.default_rng(11)
     nx = ny = 8
     n_lag, n_steps = 32, 40
     kernel = rng.normal(size=(2 * nx - 1, 2 * ny - 1, n_lag)) * 1e-6
     forces = rng.uniform(0, 5, size=(n_steps, nx * ny)) * (rng.random((n_steps, nx * ny)) < 0.5)
-    kern_t = np.ascontiguousarray(np.moveaxis(kernel, 2, 0))
-    nz_idx = np.zeros((n_steps, nx * ny), dtype=np.int64)
-    nz_cnt = np.zeros(n_steps, dtype=np.int64)
-    for s in range(n_steps):
-        idx = np.flatnonzero(forces[s])
-        nz_idx[s, : idx.size] = idx
-        nz_cnt[s] = idx.size
-    out = np.empty(nx * ny)
-    for n in (1, 5, 31, 32, 39):
-        contact._history_sum(kern_t, forces, nz_idx, nz_cnt, n, nx, ny, out)
+    history = DenseHistory(kernel, (nx, ny))
+    for n in range(n_steps):
+        out = history.displacement(n)
+        history.record(n, forces[n])
+        if n not in (0, 1, 5, 31, 32, 39):
+            continue
         ref = dense_history_sum(kernel, forces.reshape(n_steps, nx, ny), n).ravel()
         # explicit loop over (lag, m): an independent reference for the dense helper too
         loop = np.zeros(nx * ny)
@@ -299,9 +308,11 @@ def test_fast_history_equals_dense_sum():
                 for e in range(nx * ny):
                     ex, ey = divmod(e, ny)
                     loop[e] += kernel[ex - mx + nx - 1, ey - my + ny - 1, lag] * forces[n - lag, m]
-        scale = np.max(np.abs(ref))
+        scale = max(np.max(np.abs(ref)), 1e-300)
         np.testing.assert_allclose(out, ref, rtol=0, atol=1e-12 * scale)
         np.testing.assert_allclose(loop, ref, rtol=0, atol=1e-12 * scale)
+    with pytest.raises(ValueError, match="next step"):
+        history.displacement(n_steps + 3)
 
 
 # --------------------------------------------------------------------------------------------
@@ -318,7 +329,7 @@ def _check_equations(z1, k, f, step, kernel, res, tol):
     np.testing.assert_allclose(forces.ravel(), f_ref, rtol=1e-13, atol=1e-13 * max(f_ref.max(), 1))
     w = np.zeros((n_steps, nx * ny))
     for lag in range(min(kernel.shape[2], n_steps)):
-        w[lag:] += forces[: n_steps - lag] @ contact._lag_matrix(np.asarray(kernel), lag).T
+        w[lag:] += forces[: n_steps - lag] @ lag_matrix(np.asarray(kernel), lag).T
     resid = res.compression.reshape(n_steps, -1) - ((z1.ravel() - z1.max())[None, :] + res.indentation[:, None] - w)
     assert np.max(np.abs(resid)) <= tol * 1.001
     np.testing.assert_allclose(res.displacement.reshape(n_steps, -1), w, rtol=0, atol=1e-15)
@@ -446,16 +457,16 @@ def test_contact_dataset(realistic_run, tmp_path):
 def test_jacobian_block_solve_matches_numpy():
     rng = np.random.default_rng(5)
     _, g_static = realistic_kernel(6, 6, 1)
-    g0 = contact._lag_matrix(g_static[:, :, None], 0)
+    g0 = lag_matrix(g_static[:, :, None], 0)
     active = np.sort(rng.choice(36, size=20, replace=False))
     ka = rng.uniform(1e3, 4e4, size=20)
     rhs = rng.normal(size=20) * 1e-6
-    x, ok = contact._jacobian_block_solve(g0, active, ka, rhs)
+    x, ok = newton._jacobian_block_solve(g0, active, ka, rhs)
     jac = np.eye(20) + g0[np.ix_(active, active)] * ka[None, :]
     assert ok
     np.testing.assert_allclose(x, np.linalg.solve(jac, rhs), rtol=1e-12, atol=1e-12 * np.abs(x).max())
     # an exactly singular block (I + G K = [[.5, -.5], [-.5, .5]]) is reported, not divided by 0
-    _, ok = contact._jacobian_block_solve(np.full((2, 2), -0.5), np.array([0, 1]), np.array([1.0, 1.0]),
+    _, ok = newton._jacobian_block_solve(np.full((2, 2), -0.5), np.array([0, 1]), np.array([1.0, 1.0]),
                                           np.ones(2))
     assert not ok
 
@@ -497,21 +508,6 @@ def test_solve_run_from_stage_datasets():
         contact.solve_run(surface, springs, greens, mat, "static", 0.0, settings)
 
 
-def test_numba_springs_equal_the_springs_module_contract():
-    """The solver's spring evaluation and tyreroad.springs.evaluate implement one contract."""
-    from tyreroad import springs
-
-    rng = np.random.default_rng(7)
-    k_tab, f_tab, step = punch_tables(30, rng, step=1e-6, zeta_max=1e-3)
-    zmax = step * (k_tab.shape[1] - 1)
-    zeta = rng.uniform(-0.1 * zmax, 1.3 * zmax, size=30)
-    zeta[:3] = [0.0, -1e-6, zmax]
-    f, k = evaluate_springs(zeta, k_tab, f_tab, step)
-    f_ref, k_ref = springs.evaluate(zeta, step, k_tab, f_tab)
-    np.testing.assert_allclose(f, f_ref, rtol=1e-13, atol=1e-14 * f_tab.max())
-    np.testing.assert_allclose(k, k_ref, rtol=1e-13, atol=0)
-
-
 # --------------------------------------------------------------------------------------------
 # FFT / Newton-Krylov path (issue 7) against the dense reference path
 # --------------------------------------------------------------------------------------------
@@ -540,3 +536,96 @@ def test_method_selection_and_validation():
         SolverSettings.from_config({"method": "magic"})
     with pytest.raises(ValueError, match="solver.preconditioner_block"):
         SolverSettings.from_config({"preconditioner_block": 0})
+
+
+# --------------------------------------------------------------------------------------------
+# The time-marching protocol: new loadings and histories plug in without touching the loop
+# --------------------------------------------------------------------------------------------
+class ConstantOffsetHistory:
+    """A history that pushes every element into the layer by a fixed offset (a trivial extra term)."""
+
+    def __init__(self, offset):
+        self.offset = np.asarray(offset, dtype=float)
+        self.recorded = []
+
+    def displacement(self, n):
+        return self.offset.copy()
+
+    def record(self, n, force):
+        self.recorded.append(n)
+
+
+class StaircaseLoading:
+    """A per-element prescribed free compression (not a single d): element e sees d[n] + tilt_e."""
+
+    def __init__(self, z1, d, tilt):
+        self.gap0 = (np.asarray(z1) - np.max(z1)).ravel()
+        self.d = np.asarray(d, dtype=float)
+        self.tilt = np.asarray(tilt, dtype=float).ravel()
+        self.n_steps = self.d.size
+        self.time = np.arange(self.n_steps) / 51200.0
+
+    def free_compression(self, n):
+        return self.gap0 + self.d[n] + self.tilt
+
+    def rest_compression(self):
+        return self.gap0.copy()
+
+    def describe(self, n):
+        return f"stair {n}"
+
+    def prescribed(self):
+        field = self.gap0[None, :] + self.d[:, None] + self.tilt[None, :]
+        return {"free_compression": (field.reshape(self.n_steps, 4, 3), "m", "prescribed z1 - z2 per element")}
+
+
+def test_extra_history_and_new_loading_plug_into_the_march():
+    """A constant-offset history equals the same run with the offset removed from the indentation,
+    and a per-element loading runs through the unchanged march and Newton driver."""
+    from tyreroad.contact import RunRecorder, build_collaborators, march
+    from tyreroad.history import HistorySum
+    from tyreroad.loading import IndentationPath
+
+    rng = np.random.default_rng(21)
+    nx, ny = 4, 3
+    z1 = realistic_z1(nx, ny, rng)
+    k, f, step = punch_tables(nx * ny, rng)
+    kernel, _ = realistic_kernel(nx, ny, 16)
+    settings = SolverSettings(d_max=2e-4)
+    table = SpringTable.checked(k, f, step, nx * ny)
+    d = 0.5 * 500.0 * (np.arange(40) / 51200.0) ** 2 + 1e-5
+    offset = 4e-6  # m, every element pushed 4 um into the layer by the extra history
+    for method in ("dense", "fft"):
+        s = dataclasses.replace(settings, method=method)
+        substrate, kept = build_collaborators(kernel, (nx, ny), s)
+        extra = ConstantOffsetHistory(np.full(nx * ny, offset))
+        loading = IndentationPath(z1, d, time=np.arange(d.size) / 51200.0)
+        res = march(loading, table, substrate, HistorySum([kept, extra]), s, RunRecorder(d.size, (nx, ny)))
+        ref = solve_path(z1, k, f, step, kernel, d - offset, s, time=np.arange(d.size) / 51200.0)
+        np.testing.assert_allclose(res.force, ref.force, rtol=1e-10, atol=1e-10 * ref.force.max())
+        # the offset is part of the displacement w, not of the spring compression
+        np.testing.assert_allclose(res.displacement - offset, ref.displacement, rtol=0, atol=1e-14)
+        assert extra.recorded == list(range(d.size))
+        assert ref.force[-1] > 0.5 and res.force[0] < ref.force.max()
+
+    # a per-element loading: the tilt makes the elements meet the road at different times
+    tilt = np.linspace(-2e-5, 2e-5, nx * ny)
+    substrate, kept = build_collaborators(kernel, (nx, ny), settings)
+    stairs = StaircaseLoading(z1, d, tilt)
+    res = march(stairs, table, substrate, kept, settings, RunRecorder(d.size, (nx, ny)))
+    n_steps = d.size
+    forces = res.element_force.reshape(n_steps, -1)
+    w = np.zeros((n_steps, nx * ny))
+    for lag in range(kernel.shape[2]):
+        w[lag:] += forces[: n_steps - lag] @ lag_matrix(kernel, lag).T
+    free = np.stack([stairs.free_compression(n) for n in range(n_steps)])
+    assert np.max(np.abs(res.compression.reshape(n_steps, -1) - (free - w))) <= settings.tolerance * 1.001
+    f_ref, _ = spring_reference(res.compression.ravel(), k, f, step, np.tile(np.arange(nx * ny), n_steps))
+    np.testing.assert_allclose(forces.ravel(), f_ref, rtol=1e-13, atol=1e-13 * f_ref.max())
+    first_contact = np.argmax(forces > 0, axis=0)[forces.max(axis=0) > 0]
+    assert np.unique(first_contact).size > 2  # the tilt staggers the elements' first contact
+    ds = contact_dataset(dataclasses.replace(res, backing_force=res.force), "dynamic", 500.0, "s", "m")
+    assert ds["free_compression"].dims == ("step", "ex", "ey") and "indentation" not in ds
+    with pytest.raises(ContactConvergenceError, match=r"contact step (\d+) \(stair \1\): Newton did not converge"):
+        march(stairs, table, substrate, DenseHistory(kernel, (nx, ny)), SolverSettings(max_iterations=1),
+              RunRecorder(d.size, (nx, ny)))

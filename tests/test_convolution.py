@@ -1,4 +1,4 @@
-"""FFT offset convolution, history ring buffer and Newton-Krylov step solver against dense references."""
+"""FFT offset convolution, FFT history ring and the Newton-Krylov step (FFT substrate) against dense references."""
 
 import numpy as np
 import pytest
@@ -6,16 +6,19 @@ import pytest
 from tyreroad import springs
 from tyreroad.convolution import (
     BlockJacobiPreconditioner,
-    HistoryAccumulator,
-    KrylovConvergenceError,
     OffsetConvolution,
-    _accumulate_complex,
-    _accumulate_real,
     _combine,
     _orthogonalize,
     padded_shape,
-    solve_step_newton_krylov,
 )
+from tyreroad.history import FFTHistory, _accumulate_complex, _accumulate_real
+from tyreroad.newton import FFTSubstrate, StepConvergenceError, solve_step
+
+
+def solve_step_newton_krylov(rhs, zeta0, table, conv, tol=1e-12, max_iter=50, block=4):
+    """One matrix-free Newton step on (nx, ny) fields through the package's driver."""
+    substrate = FFTSubstrate(conv, tol, block=block)
+    return solve_step(np.ravel(rhs).astype(float), np.ravel(zeta0).astype(float), table, substrate, tol, max_iter)
 
 
 def _dense_matrices(g, nx, ny):
@@ -91,28 +94,30 @@ def test_history_equals_dense_sum(nx, ny, n_lag, kind):
         g[0, 3, 5] += 1e-10 * np.max(np.abs(g))
     conv = OffsetConvolution(g, (nx, ny), workers=2)
     assert conv.symmetric == (kind == "even")
-    acc = conv.history_accumulator()
-    assert np.all(acc.history() == 0.0)
+    acc = FFTHistory(conv)
+    assert np.all(acc.displacement(0) == 0.0)
     n_steps = 45  # more than L - 1: the ring wraps around
     f_hist = rng.uniform(0, 5, (n_steps, nx, ny))
     dense = _dense_matrices(g, nx, ny)
     worst = 0.0
     for n in range(1, n_steps + 1):
-        acc.push(f_hist[n - 1])
+        acc.record(n - 1, f_hist[n - 1])
         ref = np.zeros(nx * ny)
         for lag in range(1, min(n_lag - 1, n) + 1):
             ref += dense[lag] @ f_hist[n - lag].ravel()
-        worst = max(worst, _rel(acc.history(), ref.reshape(nx, ny)))
+        worst = max(worst, _rel(acc.displacement(n), ref))
     assert worst < 1e-12
 
 
 def test_history_single_lag_is_zero():
     rng = np.random.default_rng(4)
     conv = OffsetConvolution(rng.standard_normal((5, 5, 1)), (3, 3))
-    acc = HistoryAccumulator(conv)
-    acc.push(np.ones((3, 3)))
-    acc.push(np.ones((3, 3)))
-    assert acc.steps_pushed == 2 and np.all(acc.history() == 0.0)
+    acc = FFTHistory(conv)
+    acc.record(0, np.ones((3, 3)))
+    acc.record(1, np.ones(9))
+    assert np.all(acc.displacement(2) == 0.0)
+    with pytest.raises(ValueError, match="next step to record is 2"):
+        acc.record(5, np.ones(9))
 
 
 def _accumulate_numpy(spectra, ring, newest, n_terms):
@@ -203,7 +208,7 @@ def _problem(nx=12, ny=12, seed=7):
 
     z1 = -rng.uniform(0, 2e-4, (nx, ny))
     rhs = z1 + 2e-4  # indentation 0.2 mm: about a third of the elements in contact
-    return g, spring_eval, rhs
+    return g, spring_eval, rhs, springs.SpringTable.checked(k_tab, f_tab, step, nx * ny)
 
 
 def _dense_newton(g0mat, spring_eval, rhs):
@@ -228,7 +233,7 @@ def _dense_newton(g0mat, spring_eval, rhs):
 @pytest.mark.parametrize("block", [1, 4])
 def test_newton_krylov_equals_dense_newton(block):
     nx = ny = 12
-    g, spring_eval, rhs = _problem(nx, ny)
+    g, spring_eval, rhs, table = _problem(nx, ny)
     conv = OffsetConvolution(g, (nx, ny))
     g0mat = _dense_matrices(g, nx, ny)[0]
     ref, ref_res = _dense_newton(g0mat, spring_eval, rhs)
@@ -236,28 +241,28 @@ def test_newton_krylov_equals_dense_newton(block):
     active = np.mean(ref > 0)
     assert 0.25 < active < 0.9  # a genuine contact problem, not all-in or all-out
 
-    sol = solve_step_newton_krylov(rhs, rhs, spring_eval, conv, tol=1e-12, max_iter=50, block=block)
+    sol = solve_step_newton_krylov(rhs, rhs, table, conv, tol=1e-12, max_iter=50, block=block)
     f, _ = spring_eval(sol.zeta)
     true_res = np.max(np.abs(sol.zeta.ravel() - rhs.ravel() + g0mat @ f.ravel()))
     assert sol.residual <= 1e-12 and true_res <= 1e-12
     assert abs(true_res - sol.residual) < 1e-15
-    assert _rel(sol.zeta, ref) < 1e-8  # |R| <= 1e-12 m on zeta ~ 1e-4 m
+    assert _rel(sol.zeta, ref.ravel()) < 1e-8  # |R| <= 1e-12 m on zeta ~ 1e-4 m
     assert sol.newton_iterations >= 2 and sol.krylov_iterations >= sol.newton_iterations
-    assert _rel(sol.force, spring_eval(sol.zeta)[0].reshape(nx, ny)) == 0.0
+    assert _rel(sol.force, spring_eval(sol.zeta)[0].ravel()) == 0.0
 
-    tight = solve_step_newton_krylov(rhs, rhs, spring_eval, conv, tol=1e-15, max_iter=50, block=block)
-    assert _rel(tight.zeta, ref) < 1e-10
+    tight = solve_step_newton_krylov(rhs, rhs, table, conv, tol=1e-15, max_iter=50, block=block)
+    assert _rel(tight.zeta, ref.ravel()) < 1e-10
 
 
 def test_newton_krylov_warm_start_and_failure():
     nx = ny = 12
-    g, spring_eval, rhs = _problem(nx, ny, seed=8)
+    g, spring_eval, rhs, table = _problem(nx, ny, seed=8)
     conv = OffsetConvolution(g, (nx, ny))
-    sol = solve_step_newton_krylov(rhs, rhs, spring_eval, conv)
-    again = solve_step_newton_krylov(rhs, sol.zeta, spring_eval, conv)
+    sol = solve_step_newton_krylov(rhs, rhs, table, conv)
+    again = solve_step_newton_krylov(rhs, sol.zeta, table, conv)
     assert again.newton_iterations == 0 and again.krylov_iterations == 0
-    with pytest.raises(KrylovConvergenceError, match="did not converge in 1 iterations"):
-        solve_step_newton_krylov(rhs, np.zeros_like(rhs), spring_eval, conv, max_iter=1)
+    with pytest.raises(StepConvergenceError, match="did not converge in 1 iterations"):
+        solve_step_newton_krylov(rhs, np.zeros_like(rhs), table, conv, max_iter=1)
 
 
 def test_bad_input_is_named():

@@ -1,6 +1,6 @@
-"""FFT offset convolution, frequency-domain history and a matrix-free Newton-Krylov step solver.
+"""FFT offset convolution of force fields with the layer kernel, and the linear solvers of the FFT path.
 
-The contact solver (SPEC 6) needs, at every time step n, two sums over the offset table
+The contact solver (SPEC 6) needs, at every time step n, sums over the offset table
 g[dx, dy, lag] of the layer's element Green's functions (seed Eq. 3-4):
 
     (G_l F)_e = sum_m g[e - m, l] F_m                         (one lag, e, m on the nx x ny patch)
@@ -9,7 +9,10 @@ g[dx, dy, lag] of the layer's element Green's functions (seed Eq. 3-4):
 and it solves R(zeta) = zeta - b + G_0 F(zeta) = 0 with b = z1 - z2[n] - h[n]. Dense matrices
 cost M^2 per lag and step and a dense Jacobian M^3 (M = nx ny); for tyre footprints of 150 x 200
 elements with L = 256 lags neither fits. Because g depends only on the offset e - m, every lag is
-a 2-D convolution, done here by FFT.
+a 2-D convolution, done here by FFT (:class:`OffsetConvolution`). The history sum over the lags
+is :class:`tyreroad.history.FFTHistory`; the matrix-free Newton step is
+:class:`tyreroad.newton.FFTSubstrate`, which uses :func:`gmres` and the
+:class:`BlockJacobiPreconditioner` of this module.
 
 Linear convolution on a padded grid
 -----------------------------------
@@ -23,38 +26,27 @@ patch, which would wrap, are discarded). Hence P = next_fast_len(2n - 1) per axi
 3n - 2 of a general full linear convolution. The error is FFT round-off only (~1e-16 relative
 to sum |g| |F|).
 
-History accumulation
---------------------
-The spectra G^_l of all lags are precomputed; the spectra F^[s] of the last L - 1 force fields
-live in a ring buffer, so h[n] = irfft2( sum_{l=1}^{L-1} G^_l F^[n - l] ) costs one rfft2 per
-step (of the new force), one irfft2 and a multiply-add over (bins x L) complex numbers (the hot
-loop, a numba kernel parallel over frequency bins), instead of M^2 L. Everything is double
-precision: the FFT path must reproduce the dense sum to ~1e-13 relative, which single precision
-cannot. A table even in dx and in dy (the layer kernel is, SPEC 5) has real spectra, which halves
-the kernel's memory and the hot loop's traffic; other tables keep complex spectra. Memory for
-150 x 200 elements and L = 256: kernel spectra 119 MiB (real) or 238 MiB (complex), ring 235 MiB.
+Spectra
+-------
+The spectra G^_l of all lags are precomputed. Everything is double precision: the FFT path must
+reproduce the dense sum to ~1e-13 relative, which single precision cannot. A table even in dx and
+in dy (the layer kernel is, SPEC 5) has real spectra, which halves the kernel's memory and the
+history's memory traffic; other tables keep complex spectra. Memory for 150 x 200 elements and
+L = 256: kernel spectra 119 MiB (real) or 238 MiB (complex).
 
-Newton-Krylov step solver
--------------------------
+Linear solvers
+--------------
 The Jacobian J = I + G_0 diag(k) is never formed: J v = v + G_0 (k v) is one lag-0 FFT
-convolution. Each Newton correction is solved by right-preconditioned GMRES (the residual it
-minimises is the true linear residual) to an inexact-Newton forcing tolerance (Eisenstat &
-Walker 1996, choice 2) that never asks for more than a fraction of the final tolerance, with
-step halving when the residual grows. The preconditioner is block Jacobi on square tiles of
+convolution. Each Newton correction is solved by right-preconditioned GMRES (:func:`gmres`; the
+residual it minimises is the true linear residual). The preconditioner is block Jacobi on square tiles of
 elements: the exact inverse of J restricted to each tile (the lag-0 kernel is strongly local in
 the dynamic case, so the tiles capture most of the coupling). Tiles of 1 element are plain
 Jacobi, diag(1 + g[0, 0, 0] k).
 
 References
 ----------
-Winroth, J., Andersson, P. B. U., & Kropp, W. (2014). Importance of tread inertia and damping on
-the tyre/road contact stiffness. J. Sound Vib. 333(21), 5378-5385. doi:10.1016/j.jsv.2014.05.020
-Eisenstat, S. C., & Walker, H. F. (1996). Choosing the forcing terms in an inexact Newton method.
-SIAM J. Sci. Comput. 17(1), 16-32. doi:10.1137/0917003
 Saad, Y., & Schultz, M. H. (1986). GMRES: A generalized minimal residual algorithm for solving
 nonsymmetric linear systems. SIAM J. Sci. Stat. Comput. 7(3), 856-869. doi:10.1137/0907058
-Knoll, D. A., & Keyes, D. E. (2004). Jacobian-free Newton-Krylov methods: a survey of approaches
-and applications. J. Comput. Phys. 193(2), 357-397. doi:10.1016/j.jcp.2003.08.010
 """
 
 from __future__ import annotations
@@ -62,57 +54,28 @@ from __future__ import annotations
 import logging
 import math
 import numbers
-from dataclasses import dataclass
-from typing import Callable
 
-import numba
 import numpy as np
 import scipy.fft
-from numba import njit, prange
+from numba import njit
 from scipy.linalg import solve_triangular
+
+from . import checks
 
 logger = logging.getLogger(__name__)
 
 __all__ = [
     "BlockJacobiPreconditioner",
-    "HistoryAccumulator",
-    "KrylovConvergenceError",
     "OffsetConvolution",
-    "StepSolution",
     "check_offset_kernel",
+    "gmres",
     "padded_shape",
-    "solve_step_newton_krylov",
 ]
 
 #: Lags transformed per batch when the kernel spectra are built (bounds the temporary memory).
 _LAG_CHUNK = 16
 #: Largest odd part of g (relative to max|g|) still treated as an even table.
 _SYMMETRY_TOL = 1e-14
-#: Step halvings tried before a Newton step is taken in full.
-_MAX_HALVINGS = 30
-
-
-class KrylovConvergenceError(RuntimeError):
-    """A Newton-Krylov step solve did not reach its tolerance.
-
-    Attributes
-    ----------
-    residual : float
-        Final max|R| [m].
-    iterations : int
-        Newton iterations done.
-    """
-
-    def __init__(self, message: str, residual: float, iterations: int):
-        super().__init__(message)
-        self.residual = residual
-        self.iterations = iterations
-
-
-def _positive_int(name: str, value) -> int:
-    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 1:
-        raise ValueError(f"{name}: expected an integer >= 1, got {value!r}")
-    return int(value)
 
 
 def padded_shape(shape) -> tuple[int, int]:
@@ -131,7 +94,7 @@ def padded_shape(shape) -> tuple[int, int]:
     """
     if len(shape) != 2:
         raise ValueError(f"shape: expected (nx, ny), got {shape!r}")
-    nx, ny = (_positive_int(f"shape[{i}]", v) for i, v in enumerate(shape))
+    nx, ny = (checks.integer(f"shape[{i}]", v) for i, v in enumerate(shape))
     return (scipy.fft.next_fast_len(2 * nx - 1, real=True), scipy.fft.next_fast_len(2 * ny - 1, real=True))
 
 
@@ -195,17 +158,17 @@ class OffsetConvolution:
     def __init__(self, kernel, shape, workers: int = 1):
         if len(shape) != 2:
             raise ValueError(f"shape: expected (nx, ny), got {shape!r}")
-        nx, ny = (_positive_int(f"shape[{i}]", v) for i, v in enumerate(shape))
-        self.workers = _positive_int("workers", workers)
+        nx, ny = (checks.integer(f"shape[{i}]", v) for i, v in enumerate(shape))
+        self.workers = checks.integer("workers", workers)
         g = check_offset_kernel(kernel, nx, ny)
         self.shape = (nx, ny)
         self.n_lags = g.shape[2]
         self.padded = padded_shape(self.shape)
         px, py = self.padded
-        self._half = (px, py // 2 + 1)
+        self.spectrum_shape = (px, py // 2 + 1)
         self.n_bins = px * (py // 2 + 1)
         self.lag0 = np.ascontiguousarray(g[:, :, 0])
-        self._spec0 = self._spectra(g[:, :, 0:1])[:, 0].reshape(self._half)
+        self._spec0 = self._spectra(g[:, :, 0:1])[:, 0].reshape(self.spectrum_shape)
         # A table even in dx and in dy (SPEC 5: the layer kernel is) stays even on the periodic
         # grid, so its spectra are real: half the memory traffic of the hot loop. Tables even to
         # round-off (_SYMMETRY_TOL of max|g|) use the real spectra of their even part, which
@@ -218,14 +181,14 @@ class OffsetConvolution:
         depth = self.n_lags - 1
         # bin-major (bins, lag - 1): the accumulation streams one contiguous row per bin;
         # real and imaginary parts in separate arrays so the loop vectorises
-        self._hist_re = np.empty((self.n_bins, depth))
-        self._hist_im = np.empty((self.n_bins, 0 if self.symmetric else depth))
+        self._lag_re = np.empty((self.n_bins, depth))
+        self._lag_im = np.empty((self.n_bins, 0 if self.symmetric else depth))
         for l0 in range(1, self.n_lags, _LAG_CHUNK):
             l1 = min(l0 + _LAG_CHUNK, self.n_lags)
             spec = self._spectra(g[:, :, l0:l1])
-            self._hist_re[:, l0 - 1 : l1 - 1] = spec.real
+            self._lag_re[:, l0 - 1 : l1 - 1] = spec.real
             if not self.symmetric:
-                self._hist_im[:, l0 - 1 : l1 - 1] = spec.imag
+                self._lag_im[:, l0 - 1 : l1 - 1] = spec.imag
         logger.debug(
             "OffsetConvolution: patch %s, FFT grid %s, %d lags, symmetric %s, spectra %.1f MB",
             self.shape, self.padded, self.n_lags, self.symmetric, self.nbytes / 1e6,
@@ -244,9 +207,10 @@ class OffsetConvolution:
     @property
     def nbytes(self) -> int:
         """Memory held by the kernel spectra [B]."""
-        return self._spec0.nbytes + self._hist_re.nbytes + self._hist_im.nbytes + self.lag0.nbytes
+        return self._spec0.nbytes + self._lag_re.nbytes + self._lag_im.nbytes + self.lag0.nbytes
 
-    def _check_field(self, forces, name: str = "forces") -> np.ndarray:
+    def check_field(self, forces, name: str = "forces") -> np.ndarray:
+        """``forces`` as an (nx, ny) float array (a flat array of nx ny entries is reshaped)."""
         f = np.asarray(forces, dtype=float)
         if f.shape != self.shape:
             if f.size == self.shape[0] * self.shape[1] and f.ndim == 1:
@@ -256,10 +220,11 @@ class OffsetConvolution:
 
     def spectrum(self, forces) -> np.ndarray:
         """Spectrum of a zero-padded force field, shape (P_x, P_y // 2 + 1), complex."""
-        f = self._check_field(forces)
+        f = self.check_field(forces)
         return scipy.fft.rfft2(f, s=self.padded, workers=self.workers)
 
-    def _from_spectrum(self, spec: np.ndarray) -> np.ndarray:
+    def field(self, spec: np.ndarray) -> np.ndarray:
+        """Patch values [.] of a padded-grid spectrum (the inverse of :meth:`spectrum`, cropped)."""
         nx, ny = self.shape
         return scipy.fft.irfft2(spec, s=self.padded, workers=self.workers)[:nx, :ny]
 
@@ -284,113 +249,17 @@ class OffsetConvolution:
         if lag == 0:
             spec *= self._spec0
         else:
-            gl = self._hist_re[:, lag - 1] if self.symmetric else self._hist_re[:, lag - 1] + 1j * self._hist_im[:, lag - 1]
-            spec *= gl.reshape(self._half)
-        return self._from_spectrum(spec)
-
-    def history_accumulator(self) -> "HistoryAccumulator":
-        """A fresh :class:`HistoryAccumulator` (no past forces) on this kernel."""
-        return HistoryAccumulator(self)
-
-
-@njit(cache=True, parallel=True, fastmath=True)
-def _accumulate_real(g_re, f_re, f_im, newest, n_terms, out_re, out_im):  # pragma: no cover - numba
-    """out[k] = sum_{j < n_terms} g[k, j] f[k, (newest + j) mod D] for real kernel spectra g.
-
-    ``g[k, j]`` is the kernel spectrum of lag j + 1; the ring is written backwards, so the force
-    of lag j + 1 sits j slots after the newest one and all rows stream forwards. fastmath only
-    reorders the sums (inputs are validated finite).
-    """
-    n_bins, depth = g_re.shape
-    first = min(n_terms, depth - newest)
-    for k in prange(n_bins):
-        a = 0.0
-        b = 0.0
-        for j in range(first):
-            a += g_re[k, j] * f_re[k, newest + j]
-            b += g_re[k, j] * f_im[k, newest + j]
-        for j in range(first, n_terms):
-            a += g_re[k, j] * f_re[k, newest + j - depth]
-            b += g_re[k, j] * f_im[k, newest + j - depth]
-        out_re[k] = a
-        out_im[k] = b
-
-
-@njit(cache=True, parallel=True, fastmath=True)
-def _accumulate_complex(g_re, g_im, f_re, f_im, newest, n_terms, out_re, out_im):  # pragma: no cover - numba
-    """As :func:`_accumulate_real` for complex kernel spectra g_re + i g_im."""
-    n_bins, depth = g_re.shape
-    first = min(n_terms, depth - newest)
-    for k in prange(n_bins):
-        a = 0.0
-        b = 0.0
-        for j in range(first):
-            s = newest + j
-            a += g_re[k, j] * f_re[k, s] - g_im[k, j] * f_im[k, s]
-            b += g_re[k, j] * f_im[k, s] + g_im[k, j] * f_re[k, s]
-        for j in range(first, n_terms):
-            s = newest + j - depth
-            a += g_re[k, j] * f_re[k, s] - g_im[k, j] * f_im[k, s]
-            b += g_re[k, j] * f_im[k, s] + g_im[k, j] * f_re[k, s]
-        out_re[k] = a
-        out_im[k] = b
-
-
-class HistoryAccumulator:
-    """Ring buffer of past force spectra and the history term h[n] of the contact solver.
-
-    Usage per time step n: ``h = acc.history()`` (sum over lags 1 ... L-1 of the forces pushed
-    so far: forces before the first push are zero), solve the step, ``acc.push(F[n])``.
-
-    Parameters
-    ----------
-    conv : OffsetConvolution
-        Kernel spectra and FFT settings.
-    """
-
-    def __init__(self, conv: OffsetConvolution):
-        if not isinstance(conv, OffsetConvolution):
-            raise TypeError(f"conv: expected OffsetConvolution, got {type(conv).__name__}")
-        self.conv = conv
-        self._depth = conv.n_lags - 1
-        self._ring_re = np.zeros((conv.n_bins, self._depth))
-        self._ring_im = np.zeros((conv.n_bins, self._depth))
-        self._newest = 0
-        self.steps_pushed = 0
-        self._out_re = np.empty(conv.n_bins)
-        self._out_im = np.empty(conv.n_bins)
+            gl = self._lag_re[:, lag - 1] if self.symmetric else self._lag_re[:, lag - 1] + 1j * self._lag_im[:, lag - 1]
+            spec *= gl.reshape(self.spectrum_shape)
+        return self.field(spec)
 
     @property
-    def nbytes(self) -> int:
-        """Memory of the ring buffer [B]."""
-        return self._ring_re.nbytes + self._ring_im.nbytes
+    def lag_spectra(self) -> tuple[np.ndarray, np.ndarray]:
+        """Spectra of lags 1 ... L-1, (real, imaginary) parts, shape (bins, L - 1) each (bin-major).
 
-    def push(self, forces) -> None:
-        """Append the force field F[n] [N], shape (nx, ny), of the step just solved."""
-        f = self.conv._check_field(forces)
-        if not np.all(np.isfinite(f)):
-            raise ValueError("HistoryAccumulator.push: forces contain NaN or infinite values")
-        if self._depth > 0:
-            spec = self.conv.spectrum(f).ravel()
-            self._newest = (self._newest - 1) % self._depth
-            self._ring_re[:, self._newest] = spec.real
-            self._ring_im[:, self._newest] = spec.imag
-        self.steps_pushed += 1
-
-    def history(self) -> np.ndarray:
-        """h[n] = sum_{l=1}^{L-1} sum_m g[e - m, l] F_m[n - l] [m], shape (nx, ny), n = steps pushed."""
-        n_terms = min(self.steps_pushed, self._depth)
-        if n_terms == 0:
-            return np.zeros(self.conv.shape)
-        conv = self.conv
-        numba.set_num_threads(min(conv.workers, numba.config.NUMBA_NUM_THREADS))
-        args = (self._ring_re, self._ring_im, self._newest, n_terms, self._out_re, self._out_im)
-        if conv.symmetric:
-            _accumulate_real(conv._hist_re, *args)
-        else:
-            _accumulate_complex(conv._hist_re, conv._hist_im, *args)
-        spec = (self._out_re + 1j * self._out_im).reshape(conv._half)
-        return conv._from_spectrum(spec)
+        The imaginary part has zero columns when the table is :attr:`symmetric`.
+        """
+        return self._lag_re, self._lag_im
 
 
 class BlockJacobiPreconditioner:
@@ -410,7 +279,7 @@ class BlockJacobiPreconditioner:
     """
 
     def __init__(self, conv: OffsetConvolution, block: int = 4):
-        self.block = _positive_int("block", block)
+        self.block = checks.integer("block", block)
         nx, ny = conv.shape
         self.bx, self.by = min(self.block, nx), min(self.block, ny)
         self.tiles = (-(-nx // self.bx), -(-ny // self.by))
@@ -503,7 +372,7 @@ def _combine(coef, basis, out):  # pragma: no cover - numba
             out[p] += c * basis[i, p]
 
 
-def _gmres(matvec, psolve, b: np.ndarray, atol: float, restart: int, max_iter: int):
+def gmres(matvec, psolve, b: np.ndarray, atol: float, restart: int, max_iter: int):
     """Right-preconditioned restarted GMRES from x0 = 0 (Saad & Schultz 1986).
 
     Minimises the true residual ||b - A x||_2 over x = M^-1 V y, stops when it is <= atol or
@@ -561,203 +430,3 @@ def _gmres(matvec, psolve, b: np.ndarray, atol: float, restart: int, max_iter: i
             break
         beta = beta_new
     return x, done, beta
-
-
-@dataclass(frozen=True)
-class StepSolution:
-    """Result of one Newton-Krylov step solve.
-
-    Attributes
-    ----------
-    zeta : numpy.ndarray
-        Spring compressions [m], shape (nx, ny).
-    force, stiffness : numpy.ndarray
-        F(zeta) [N] and k(zeta) [N/m] from the spring evaluator, shape (nx, ny).
-    newton_iterations : int
-        Newton corrections taken.
-    krylov_iterations : int
-        GMRES matrix-vector products, all Newton iterations together.
-    residual : float
-        Final max|R| [m].
-    """
-
-    zeta: np.ndarray
-    force: np.ndarray
-    stiffness: np.ndarray
-    newton_iterations: int
-    krylov_iterations: int
-    residual: float
-
-
-def solve_step_newton_krylov(
-    rhs,
-    zeta0,
-    spring_eval: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]],
-    conv: OffsetConvolution,
-    tol: float = 1e-12,
-    max_iter: int = 50,
-    *,
-    preconditioner: BlockJacobiPreconditioner | None = None,
-    block: int = 4,
-    eta_max: float = 0.1,
-    krylov_restart: int = 60,
-    krylov_max: int = 600,
-    refresh_after: int = 8,
-    polish: bool = True,
-) -> StepSolution:
-    """Solve R(zeta) = zeta - rhs + G_0 F(zeta) = 0 matrix-free (inexact Newton + GMRES).
-
-    Parameters
-    ----------
-    rhs : array_like
-        b = z1 - z2[n] - h[n] [m], shape (nx, ny) (or flat).
-    zeta0 : array_like
-        Start value [m] (warm start from the previous step), same shape.
-    spring_eval : callable
-        zeta -> (F [N], k [N/m]) for every element (docs/data_contracts.md contract: zero for
-        zeta <= 0, k = dF/dzeta); called with an (nx, ny) array, may return (nx, ny) or flat.
-    conv : OffsetConvolution
-        Kernel; lag 0 is G_0.
-    tol : float
-        Convergence on max|R| [m] (config ``solver.tolerance``).
-    max_iter : int
-        Newton iteration limit (config ``solver.max_iterations``).
-    preconditioner : BlockJacobiPreconditioner, optional
-        Reused across steps if given; else one with tiles of ``block`` elements is made.
-    block : int
-        Tile edge [elements] of the block-Jacobi preconditioner (1 = Jacobi).
-    eta_max : float
-        Largest inexact-Newton forcing term (relative GMRES tolerance), 0 < eta_max < 1.
-    krylov_restart, krylov_max : int
-        GMRES restart length and limit on matrix-vector products per Newton iteration.
-    refresh_after : int
-        The preconditioner is factorised for the current k at the first Newton iteration and
-        again only after a GMRES solve that needed more than this many products (0: every
-        iteration). k changes little between Newton iterations of a warm-started step, and the
-        preconditioner only steers GMRES: the Jacobian products always use the current k.
-    polish : bool
-        After convergence, take one more Newton correction with a linear solve 1e-3 below the
-        residual (default True), so the result agrees with a direct Newton solve to round-off
-        rather than to ~k * tol.
-
-    Returns
-    -------
-    StepSolution
-
-    Raises
-    ------
-    KrylovConvergenceError
-        If max|R| > tol after ``max_iter`` Newton iterations (the caller adds step and d).
-
-    Notes
-    -----
-    The GMRES target for the correction delta of J delta = -R is
-    ||J delta + R||_2 <= max(eta_k ||R||_2, tol / 4): eta_k follows Eisenstat-Walker choice 2
-    (gamma = 0.9, exponent 2, safeguarded, capped at ``eta_max``); the absolute floor tol / 4
-    bounds the linear error's max-norm by tol / 4, so the final Newton residual can reach tol
-    without over-solving earlier iterations. A trial step is accepted when ||R||_2 decreases
-    (Armijo, 1e-4); otherwise it is halved up to 30 times, then taken in full (at a contact
-    kink no shorter step may decrease the residual; ``max_iter`` still bounds the loop).
-    """
-    nx, ny = conv.shape
-    b = conv._check_field(rhs, "rhs").copy()
-    zeta = conv._check_field(zeta0, "zeta0").copy()
-    if not (np.all(np.isfinite(b)) and np.all(np.isfinite(zeta))):
-        raise ValueError("solve_step_newton_krylov: rhs and zeta0 must be finite")
-    tol = float(tol)
-    if not math.isfinite(tol) or tol <= 0:
-        raise ValueError(f"tol: expected a finite number > 0 [m], got {tol!r}")
-    max_iter = _positive_int("max_iter", max_iter)
-    if isinstance(refresh_after, bool) or not isinstance(refresh_after, numbers.Integral) or refresh_after < 0:
-        raise ValueError(f"refresh_after: expected an integer >= 0, got {refresh_after!r}")
-    if not 0.0 < eta_max < 1.0:
-        raise ValueError(f"eta_max: expected 0 < eta_max < 1, got {eta_max!r}")
-    if preconditioner is None:
-        preconditioner = BlockJacobiPreconditioner(conv, block)
-    elif preconditioner.shape != conv.shape:
-        raise ValueError(f"preconditioner: patch shape {preconditioner.shape} differs from {conv.shape}")
-
-    def springs(z):
-        f, k = spring_eval(z)
-        f = np.asarray(f, dtype=float).reshape(nx, ny)
-        k = np.asarray(k, dtype=float).reshape(nx, ny)
-        return f, k
-
-    def residual(z):
-        f, k = springs(z)
-        return (z - b) + conv.apply_lag(f, 0), f, k
-
-    r, f, k = residual(zeta)
-    rinf = float(np.max(np.abs(r)))
-    r2 = _norm(r)
-    newton = 0
-    krylov = 0
-    its = 0
-    eta = eta_max
-    while rinf > tol:
-        if newton >= max_iter:
-            raise KrylovConvergenceError(
-                f"Newton-Krylov did not converge in {max_iter} iterations: max|R| = {rinf:.3e} m "
-                f"> tolerance {tol:.1e} m ({krylov} Krylov iterations)",
-                rinf,
-                newton,
-            )
-        if newton == 0 or its > refresh_after:
-            preconditioner.update(k)
-        kflat = k.ravel()
-
-        def matvec(v, kflat=kflat):
-            return v + conv.apply_lag((kflat * v).reshape(nx, ny), 0).ravel()
-
-        def psolve(v):
-            return preconditioner.solve(v).ravel()
-
-        target = max(eta * r2, 0.25 * tol)
-        delta, its, lin = _gmres(matvec, psolve, -r.ravel(), target, krylov_restart, krylov_max)
-        krylov += its
-        if lin > target:
-            logger.debug("GMRES stopped at ||J d + R|| = %.3e > target %.3e after %d products", lin, target, its)
-        delta = delta.reshape(nx, ny)
-        lam = 1.0
-        for _ in range(_MAX_HALVINGS + 1):
-            z_try = zeta + lam * delta
-            r_try, f_try, k_try = residual(z_try)
-            r2_try = _norm(r_try)
-            if r2_try <= (1.0 - 1e-4 * lam) * r2:
-                break
-            lam *= 0.5
-        else:
-            logger.debug("no residual decrease in %d halvings, full Newton step", _MAX_HALVINGS)
-            z_try = zeta + delta
-            r_try, f_try, k_try = residual(z_try)
-            r2_try = _norm(r_try)
-        # Eisenstat-Walker choice 2 with safeguard
-        eta_new = 0.9 * (r2_try / r2) ** 2
-        if 0.9 * eta**2 > 0.1:
-            eta_new = max(eta_new, 0.9 * eta**2)
-        eta = min(eta_max, eta_new)
-        zeta, r, f, k, r2 = z_try, r_try, f_try, k_try, r2_try
-        rinf = float(np.max(np.abs(r)))
-        newton += 1
-    if polish and newton > 0 and rinf > 0.0:
-        # One more Newton correction with a linear solve 1e-3 below the converged residual: the
-        # inexact-Newton iterate stops just under tol (a force error ~ k * tol), whereas a direct
-        # solver's last quadratic step lands at round-off. Polishing makes the two paths agree to
-        # ~1e-12 relative at the cost of one cheap extra iteration.
-        preconditioner.update(k)
-        kflat = k.ravel()
-
-        def matvec_polish(v, kflat=kflat):
-            return v + conv.apply_lag((kflat * v).reshape(nx, ny), 0).ravel()
-
-        delta, its, _ = _gmres(
-            matvec_polish, lambda v: preconditioner.solve(v).ravel(), -r.ravel(), 1e-3 * r2, krylov_restart, krylov_max
-        )
-        krylov += its
-        z_try = zeta + delta.reshape(nx, ny)
-        r_try, f_try, k_try = residual(z_try)
-        rinf_try = float(np.max(np.abs(r_try)))
-        if rinf_try <= rinf:
-            zeta, r, f, k, rinf = z_try, r_try, f_try, k_try, rinf_try
-            newton += 1
-    return StepSolution(zeta, f, k, newton, krylov, rinf)

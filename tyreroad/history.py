@@ -1,0 +1,276 @@
+"""Histories: the layer displacement at step n caused by the forces of earlier steps.
+
+The contact solver (SPEC 6) splits the layer surface displacement at step n into the part of the
+step's own forces, G_0 F[n] (solved for, see :mod:`tyreroad.newton`), and the history
+
+    h_e[n] = sum_{l >= 1} sum_m g_{e-m}[l] F_m[n - l],
+
+which is known before step n is solved. A *history* is any object with the protocol
+
+    ``displacement(n) -> h``   h[n] [m], shape (M,), from the forces recorded for steps < n;
+    ``record(n, force)``       the converged forces F[n] [N], shape (M,), of step n,
+
+called in the order displacement(0), record(0, F[0]), displacement(1), record(1, F[1]), ... by the
+time-marching loop (:func:`tyreroad.contact.march`). Histories add: a run can carry the kept lags
+(:class:`DenseHistory` or :class:`FFTHistory`, the same sum by two algorithms) and further terms
+(the long-memory tail, SPEC 9) side by side in a :class:`HistorySum`, without any change to the
+march loop or the Newton driver.
+
+Both kept-lag histories hold only the last L - 1 force fields in a ring, so their memory and cost
+per step do not grow with the length of the run; lags beyond L - 1 are not part of them.
+"""
+
+from __future__ import annotations
+
+from typing import Protocol, Sequence, runtime_checkable
+
+import numba
+import numpy as np
+from numba import njit, prange
+
+from . import checks
+from .convolution import OffsetConvolution, check_offset_kernel
+
+__all__ = ["History", "DenseHistory", "FFTHistory", "HistorySum"]
+
+
+@runtime_checkable
+class History(Protocol):
+    """Displacement from past forces; see the module docstring."""
+
+    def displacement(self, n: int) -> np.ndarray:  # pragma: no cover - protocol
+        ...
+
+    def record(self, n: int, force: np.ndarray) -> None:  # pragma: no cover - protocol
+        ...
+
+
+class _StepCounter:
+    """Checks that steps are recorded in order 0, 1, 2, ... and displacement asked for the next one."""
+
+    def __init__(self) -> None:
+        self.recorded = 0
+
+    def check_displacement(self, n: int, name: str) -> None:
+        if n != self.recorded:
+            raise ValueError(f"{name}.displacement({n}): the next step is {self.recorded} (steps go 0, 1, 2, ...)")
+
+    def check_record(self, n: int, name: str) -> None:
+        if n != self.recorded:
+            raise ValueError(f"{name}.record({n}): the next step to record is {self.recorded}")
+        self.recorded += 1
+
+
+# --------------------------------------------------------------------------------------------
+# Dense offset-table history (the reference path)
+# --------------------------------------------------------------------------------------------
+@njit(cache=True, parallel=True)
+def _history_sum(kern_t, f_ring, nz_idx, nz_cnt, n, nx, ny, out):  # pragma: no cover - numba
+    """h[n] from the offset table kern_t[lag, dx, dy], visiting only loaded elements.
+
+    Step s is stored in ring slot s mod D (D = ring depth = L - 1); ``nz_idx[slot, :nz_cnt[slot]]``
+    lists the flat indices of the elements with F != 0 at that step. Rows ex are independent, so
+    they run in parallel without races; within a row the sum runs over lags, then loaded
+    elements, in ascending order (the order fixes the round-off).
+    """
+    n_lag = kern_t.shape[0]
+    depth = f_ring.shape[0]
+    lmax = min(n_lag - 1, n)
+    for ex in prange(nx):
+        for ey in range(ny):
+            out[ex * ny + ey] = 0.0
+        for lag in range(1, lmax + 1):
+            slot = (n - lag) % depth
+            for q in range(nz_cnt[slot]):
+                m = nz_idx[slot, q]
+                mx = m // ny
+                my = m - mx * ny
+                f = f_ring[slot, m]
+                row = ex - mx + nx - 1
+                off = ny - 1 - my
+                for ey in range(ny):
+                    out[ex * ny + ey] += kern_t[lag, row, ey + off] * f
+
+
+class DenseHistory:
+    """Lags 1 ... L-1 of an offset table summed directly over the loaded elements.
+
+    Cost per step O(L M_c M) (M_c elements in contact), memory O(L M); exact, the reference for
+    :class:`FFTHistory`.
+
+    Parameters
+    ----------
+    kernel : array_like
+        g[dx, dy, lag] [m/N], offsets -(n-1) ... n-1 (a larger centred table is cropped).
+    shape : tuple of int
+        Patch (nx, ny) [elements].
+    """
+
+    def __init__(self, kernel, shape):
+        nx, ny = (checks.integer(f"shape[{i}]", v) for i, v in enumerate(shape))
+        g = check_offset_kernel(kernel, nx, ny)
+        self.shape = (nx, ny)
+        self.n_lags = g.shape[2]
+        self._kern_t = np.ascontiguousarray(np.moveaxis(g, 2, 0))
+        depth = max(self.n_lags - 1, 1)
+        n_elem = nx * ny
+        self._f_ring = np.zeros((depth, n_elem))
+        self._nz_idx = np.zeros((depth, n_elem), dtype=np.int64)
+        self._nz_cnt = np.zeros(depth, dtype=np.int64)
+        self._out = np.zeros(n_elem)
+        self._steps = _StepCounter()
+
+    def displacement(self, n: int) -> np.ndarray:
+        """h[n] [m], shape (M,), from lags 1 ... min(L - 1, n)."""
+        self._steps.check_displacement(n, "DenseHistory")
+        if self.n_lags > 1 and n > 0:
+            nx, ny = self.shape
+            _history_sum(self._kern_t, self._f_ring, self._nz_idx, self._nz_cnt, n, nx, ny, self._out)
+        return self._out.copy()
+
+    def record(self, n: int, force: np.ndarray) -> None:
+        """Store F[n] [N], shape (M,), in ring slot n mod (L - 1)."""
+        self._steps.check_record(n, "DenseHistory")
+        if self.n_lags > 1:
+            slot = n % self._f_ring.shape[0]
+            loaded = np.flatnonzero(force)
+            self._f_ring[slot] = force
+            self._nz_idx[slot, : loaded.size] = loaded
+            self._nz_cnt[slot] = loaded.size
+
+
+# --------------------------------------------------------------------------------------------
+# FFT history (footprint-size patches)
+# --------------------------------------------------------------------------------------------
+@njit(cache=True, parallel=True, fastmath=True)
+def _accumulate_real(g_re, f_re, f_im, newest, n_terms, out_re, out_im):  # pragma: no cover - numba
+    """out[k] = sum_{j < n_terms} g[k, j] f[k, (newest + j) mod D] for real kernel spectra g.
+
+    ``g[k, j]`` is the kernel spectrum of lag j + 1; the ring is written backwards, so the force
+    of lag j + 1 sits j slots after the newest one and all rows stream forwards. fastmath only
+    reorders the sums (inputs are validated finite).
+    """
+    n_bins, depth = g_re.shape
+    first = min(n_terms, depth - newest)
+    for k in prange(n_bins):
+        a = 0.0
+        b = 0.0
+        for j in range(first):
+            a += g_re[k, j] * f_re[k, newest + j]
+            b += g_re[k, j] * f_im[k, newest + j]
+        for j in range(first, n_terms):
+            a += g_re[k, j] * f_re[k, newest + j - depth]
+            b += g_re[k, j] * f_im[k, newest + j - depth]
+        out_re[k] = a
+        out_im[k] = b
+
+
+@njit(cache=True, parallel=True, fastmath=True)
+def _accumulate_complex(g_re, g_im, f_re, f_im, newest, n_terms, out_re, out_im):  # pragma: no cover - numba
+    """As :func:`_accumulate_real` for complex kernel spectra g_re + i g_im."""
+    n_bins, depth = g_re.shape
+    first = min(n_terms, depth - newest)
+    for k in prange(n_bins):
+        a = 0.0
+        b = 0.0
+        for j in range(first):
+            s = newest + j
+            a += g_re[k, j] * f_re[k, s] - g_im[k, j] * f_im[k, s]
+            b += g_re[k, j] * f_im[k, s] + g_im[k, j] * f_re[k, s]
+        for j in range(first, n_terms):
+            s = newest + j - depth
+            a += g_re[k, j] * f_re[k, s] - g_im[k, j] * f_im[k, s]
+            b += g_re[k, j] * f_im[k, s] + g_im[k, j] * f_re[k, s]
+        out_re[k] = a
+        out_im[k] = b
+
+
+class FFTHistory:
+    """Lags 1 ... L-1 summed in the frequency domain over a ring of past force spectra.
+
+    h[n] = irfft2( sum_{l=1}^{L-1} G^_l F^[n - l] ): one rfft2 per step (of the recorded force),
+    one irfft2 and a multiply-add over (bins x L) complex numbers (a numba kernel parallel over
+    frequency bins) instead of M^2 L. Memory: the kernel spectra (held by ``conv``) and a ring of
+    L - 1 force spectra.
+
+    Parameters
+    ----------
+    conv : OffsetConvolution
+        Kernel spectra and FFT settings.
+    """
+
+    def __init__(self, conv: OffsetConvolution):
+        if not isinstance(conv, OffsetConvolution):
+            raise TypeError(f"conv: expected OffsetConvolution, got {type(conv).__name__}")
+        self.conv = conv
+        self._depth = conv.n_lags - 1
+        self._ring_re = np.zeros((conv.n_bins, self._depth))
+        self._ring_im = np.zeros((conv.n_bins, self._depth))
+        self._newest = 0
+        self._out_re = np.empty(conv.n_bins)
+        self._out_im = np.empty(conv.n_bins)
+        self._steps = _StepCounter()
+
+    @property
+    def nbytes(self) -> int:
+        """Memory of the ring buffer [B]."""
+        return self._ring_re.nbytes + self._ring_im.nbytes
+
+    def record(self, n: int, force: np.ndarray) -> None:
+        """Append F[n] [N], shape (M,) or (nx, ny), to the ring."""
+        f = self.conv.check_field(force)
+        if not np.all(np.isfinite(f)):
+            raise ValueError("FFTHistory.record: forces contain NaN or infinite values")
+        self._steps.check_record(n, "FFTHistory")
+        if self._depth > 0:
+            spec = self.conv.spectrum(f).ravel()
+            self._newest = (self._newest - 1) % self._depth
+            self._ring_re[:, self._newest] = spec.real
+            self._ring_im[:, self._newest] = spec.imag
+
+    def displacement(self, n: int) -> np.ndarray:
+        """h[n] [m], shape (M,): lags 1 ... min(L - 1, n) of the recorded forces."""
+        self._steps.check_displacement(n, "FFTHistory")
+        conv = self.conv
+        n_terms = min(n, self._depth)
+        if n_terms == 0:
+            return np.zeros(conv.shape[0] * conv.shape[1])
+        numba.set_num_threads(min(conv.workers, numba.config.NUMBA_NUM_THREADS))
+        args = (self._ring_re, self._ring_im, self._newest, n_terms, self._out_re, self._out_im)
+        g_re, g_im = conv.lag_spectra
+        if conv.symmetric:
+            _accumulate_real(g_re, *args)
+        else:
+            _accumulate_complex(g_re, g_im, *args)
+        spec = (self._out_re + 1j * self._out_im).reshape(conv.spectrum_shape)
+        return conv.field(spec).ravel()
+
+
+class HistorySum:
+    """Several histories acting together: h[n] is the sum of their displacements.
+
+    Parameters
+    ----------
+    histories : sequence of History
+        Each gets every ``record`` call; ``displacement`` adds theirs in the given order.
+    """
+
+    def __init__(self, histories: Sequence[History]):
+        self.histories = tuple(histories)
+        if not self.histories:
+            raise ValueError("HistorySum: expected at least one history")
+        for h in self.histories:
+            if not isinstance(h, History):
+                raise TypeError(f"HistorySum: {type(h).__name__} has no displacement(n) / record(n, force)")
+
+    def displacement(self, n: int) -> np.ndarray:
+        """Sum of the histories' h[n] [m]."""
+        total = self.histories[0].displacement(n)
+        for h in self.histories[1:]:
+            total = total + h.displacement(n)
+        return total
+
+    def record(self, n: int, force: np.ndarray) -> None:
+        """Pass F[n] [N] to every history."""
+        for h in self.histories:
+            h.record(n, force)

@@ -1,0 +1,411 @@
+"""The Newton solve of one contact step, with a pluggable instantaneous layer response (substrate).
+
+At step n the spring compressions zeta solve (SPEC 6)
+
+    R(zeta) = zeta - b + G_0 F(zeta) = 0,          b = z1 - z2[n] - h[n],
+
+with the springs' F(zeta), k(zeta) = dF/dzeta (:class:`tyreroad.springs.SpringTable`) and the
+layer's instantaneous (lag-0) compliance G_0. :func:`solve_step` is the one Newton driver of the
+package: warm start, J delta = -R, step halving until max|R| decreases, convergence on max|R| <= tol,
+then one polishing correction. What the layer contributes comes from a *substrate* object:
+
+    ``instant(force) -> G_0 F`` [m], shape (M,);
+    ``begin_step()``               called once before the Newton iterations of a step;
+    ``correction(k, r, polish) -> (delta, krylov_products)``: a solution of
+        (I + G_0 diag(k)) delta = -r, exact or to the substrate's own (inexact-Newton) tolerance.
+
+:class:`DenseSubstrate` holds G_0 as a dense matrix and solves the Jacobian of the loaded elements
+directly (the reference, and the path of the paper's 20 x 20 patch); :class:`FFTSubstrate` applies
+G_0 by FFT convolution and solves matrix-free by preconditioned GMRES (footprint-size patches).
+
+References
+----------
+Eisenstat, S. C., & Walker, H. F. (1996). Choosing the forcing terms in an inexact Newton method.
+SIAM J. Sci. Comput. 17(1), 16-32. doi:10.1137/0917003
+Knoll, D. A., & Keyes, D. E. (2004). Jacobian-free Newton-Krylov methods: a survey of approaches
+and applications. J. Comput. Phys. 193(2), 357-397. doi:10.1016/j.jcp.2003.08.010
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass
+from typing import Protocol
+
+import numpy as np
+from numba import njit
+
+from . import checks
+from .convolution import BlockJacobiPreconditioner, OffsetConvolution, gmres
+from .springs import SpringTable
+
+logger = logging.getLogger(__name__)
+
+__all__ = [
+    "StepConvergenceError",
+    "StepResult",
+    "Substrate",
+    "DenseSubstrate",
+    "FFTSubstrate",
+    "solve_step",
+]
+
+#: Step halvings tried per Newton iteration before the full (non-monotone) step is taken.
+_MAX_HALVINGS = 30
+
+
+class StepConvergenceError(RuntimeError):
+    """A step whose Newton iteration did not reach the tolerance (the caller adds step and d).
+
+    Attributes
+    ----------
+    residual : float
+        Final max|R| [m].
+    iterations : int
+        Newton iterations done.
+    """
+
+    def __init__(self, message: str, residual: float, iterations: int):
+        super().__init__(message)
+        self.residual = residual
+        self.iterations = iterations
+
+
+@dataclass(frozen=True)
+class StepResult:
+    """Converged state of one step.
+
+    Attributes
+    ----------
+    zeta : numpy.ndarray
+        Spring compressions [m], shape (M,).
+    force, stiffness : numpy.ndarray
+        F(zeta) [N] and k(zeta) [N/m], shape (M,).
+    newton_iterations : int
+        Newton corrections taken (the polishing one included).
+    krylov_iterations : int
+        Krylov matrix-vector products of all corrections (0 for a direct solve).
+    residual : float
+        Final max|R| [m].
+    """
+
+    zeta: np.ndarray
+    force: np.ndarray
+    stiffness: np.ndarray
+    newton_iterations: int
+    krylov_iterations: int
+    residual: float
+
+
+class Substrate(Protocol):
+    """The layer's instantaneous response and the Newton linear solve; see the module docstring."""
+
+    def instant(self, force: np.ndarray) -> np.ndarray:  # pragma: no cover - protocol
+        ...
+
+    def begin_step(self) -> None:  # pragma: no cover - protocol
+        ...
+
+    def correction(self, stiffness: np.ndarray, residual: np.ndarray, polish: bool) -> tuple[np.ndarray, int]:
+        ...  # pragma: no cover - protocol
+
+
+# --------------------------------------------------------------------------------------------
+# The Newton driver
+# --------------------------------------------------------------------------------------------
+def _residual(zeta, b, springs: SpringTable, substrate, f_out, k_out) -> np.ndarray:
+    """R = zeta - b + G0 F(zeta); fills f_out, k_out with F(zeta), k(zeta)."""
+    springs.evaluate_into(zeta, f_out, k_out)
+    return (zeta - b) + substrate.instant(f_out)
+
+
+def solve_step(b, zeta0, springs: SpringTable, substrate: Substrate, tolerance: float, max_iterations: int) -> StepResult:
+    """Solve R(zeta) = zeta - b + G_0 F(zeta) = 0 by Newton's method from ``zeta0``.
+
+    Each iteration takes the substrate's correction delta and halves the step until max|R|
+    decreases (up to 30 halvings; at a contact kink no shorter step may decrease it, and then the
+    full step is taken, ``max_iterations`` still bounding the loop). Once max|R| <= tolerance, one
+    more correction polishes the iterate: otherwise it stops anywhere below the tolerance, a force
+    error ~ K_patch * tolerance; polished, runs are reproducible to round-off whatever the path.
+
+    Parameters
+    ----------
+    b : numpy.ndarray
+        Free compression z1 - z2[n] - h[n] [m], shape (M,).
+    zeta0 : numpy.ndarray
+        Start value [m], shape (M,) (warm start from the previous step).
+    springs : SpringTable
+        The M springs (validated, :meth:`SpringTable.checked`).
+    substrate : Substrate
+        G_0 and the linear solve.
+    tolerance : float
+        Convergence criterion on max|R| [m].
+    max_iterations : int
+        Newton iterations allowed.
+
+    Returns
+    -------
+    StepResult
+
+    Raises
+    ------
+    StepConvergenceError
+        If max|R| > tolerance after ``max_iterations`` iterations.
+    """
+    n_elem = b.size
+    f, k = np.empty(n_elem), np.empty(n_elem)
+    f_try, k_try = np.empty(n_elem), np.empty(n_elem)
+    zeta = zeta0.copy()
+    r = _residual(zeta, b, springs, substrate, f, k)
+    rnorm = float(np.max(np.abs(r)))
+    iterations = krylov = 0
+    substrate.begin_step()
+    while rnorm > tolerance:
+        if iterations >= max_iterations:
+            raise StepConvergenceError(
+                f"Newton did not converge in {max_iterations} iterations, residual max|R| = {rnorm:.3e} m "
+                f"> tolerance {tolerance:.1e} m ({krylov} Krylov products)",
+                rnorm,
+                iterations,
+            )
+        delta, products = substrate.correction(k, r, polish=False)
+        krylov += products
+        lam = 1.0
+        for _ in range(_MAX_HALVINGS + 1):
+            zeta_try = zeta + lam * delta
+            r_try = _residual(zeta_try, b, springs, substrate, f_try, k_try)
+            rnorm_try = float(np.max(np.abs(r_try)))
+            if rnorm_try < rnorm:
+                break
+            lam *= 0.5
+        else:
+            logger.debug("no residual decrease in %d halvings, full Newton step", _MAX_HALVINGS)
+            zeta_try = zeta + delta
+            r_try = _residual(zeta_try, b, springs, substrate, f_try, k_try)
+            rnorm_try = float(np.max(np.abs(r_try)))
+        zeta, r, rnorm = zeta_try, r_try, rnorm_try
+        f, f_try = f_try, f
+        k, k_try = k_try, k
+        iterations += 1
+    if iterations > 0 and rnorm > 0.0:
+        delta, products = substrate.correction(k, r, polish=True)
+        krylov += products
+        zeta_try = zeta + delta
+        r_try = _residual(zeta_try, b, springs, substrate, f_try, k_try)
+        rnorm_try = float(np.max(np.abs(r_try)))
+        if rnorm_try <= rnorm:
+            zeta, rnorm, f, k = zeta_try, rnorm_try, f_try, k_try
+            iterations += 1
+    return StepResult(zeta, f, k, iterations, krylov, rnorm)
+
+
+# --------------------------------------------------------------------------------------------
+# Dense substrate: G_0 as a matrix, direct solve on the loaded elements
+# --------------------------------------------------------------------------------------------
+@njit(cache=True)
+def _jacobian_block_solve(g0, active, ka, rhs):  # pragma: no cover - numba
+    """Solve (I + G0[A, A] diag(k_A)) x = rhs by Gaussian elimination with partial pivoting.
+
+    Done in numba rather than LAPACK so that the small dense solve does not spawn BLAS threads
+    that oversubscribe the cores shared with other pipeline jobs. Returns (x, ok); ok is False
+    for an exactly singular pivot.
+    """
+    n = active.size
+    a = np.empty((n, n))
+    for i in range(n):
+        gi = active[i]
+        for j in range(n):
+            a[i, j] = g0[gi, active[j]] * ka[j]
+        a[i, i] += 1.0
+    x = rhs.copy()
+    for col in range(n):
+        piv = col
+        amax = abs(a[col, col])
+        for r in range(col + 1, n):
+            if abs(a[r, col]) > amax:
+                amax = abs(a[r, col])
+                piv = r
+        if amax == 0.0:
+            return x, False
+        if piv != col:
+            for c in range(n):
+                tmp = a[col, c]
+                a[col, c] = a[piv, c]
+                a[piv, c] = tmp
+            tmp = x[col]
+            x[col] = x[piv]
+            x[piv] = tmp
+        inv = 1.0 / a[col, col]
+        for r in range(col + 1, n):
+            fct = a[r, col] * inv
+            if fct != 0.0:
+                for c in range(col + 1, n):
+                    a[r, c] -= fct * a[col, c]
+                x[r] -= fct * x[col]
+    for r in range(n - 1, -1, -1):
+        acc = x[r]
+        for c in range(r + 1, n):
+            acc -= a[r, c] * x[c]
+        x[r] = acc / a[r, r]
+    return x, True
+
+
+def offset_matrix(kernel_lag: np.ndarray) -> np.ndarray:
+    """Dense M x M influence matrix G[e, m] = g[e - m] of one lag of an offset table [m/N].
+
+    Parameters
+    ----------
+    kernel_lag : numpy.ndarray
+        g[dx, dy] for offsets -(nx-1) ... nx-1, -(ny-1) ... ny-1, shape (2 nx - 1, 2 ny - 1).
+    """
+    nx, ny = (kernel_lag.shape[0] + 1) // 2, (kernel_lag.shape[1] + 1) // 2
+    ex, ey = np.divmod(np.arange(nx * ny), ny)
+    ix = ex[:, None] - ex[None, :] + nx - 1
+    iy = ey[:, None] - ey[None, :] + ny - 1
+    return np.ascontiguousarray(kernel_lag[ix, iy])
+
+
+class DenseSubstrate:
+    """G_0 as a dense M x M matrix; Newton corrections by a direct solve of the loaded block.
+
+    Columns of the Jacobian J = I + G_0 diag(k) for elements with k = 0 are unit vectors, so only
+    the block of loaded elements A is factorised: (I + G_AA K_A) delta_A = -R_A, then
+    delta_I = -R_I - G_IA K_A delta_A. Cost O(M_A^3) per correction.
+
+    Parameters
+    ----------
+    kernel_lag0 : array_like
+        g[dx, dy, 0] [m/N], offsets -(nx-1) ... nx-1 along each axis.
+    """
+
+    def __init__(self, kernel_lag0):
+        g = checks.finite_array("kernel_lag0", kernel_lag0, ndim=2)
+        self.g0 = offset_matrix(g)
+
+    def instant(self, force: np.ndarray) -> np.ndarray:
+        """G_0 F [m] over the loaded elements only."""
+        active = np.flatnonzero(force)
+        return self.g0[:, active] @ force[active]
+
+    def begin_step(self) -> None:
+        """Nothing to reset: every correction is exact."""
+
+    def correction(self, stiffness: np.ndarray, residual: np.ndarray, polish: bool) -> tuple[np.ndarray, int]:
+        """Exact solution of (I + G_0 diag(k)) delta = -r; no Krylov products."""
+        active = np.flatnonzero(stiffness)
+        if active.size == 0:
+            return -residual, 0
+        ka = stiffness[active]
+        delta_a, ok = _jacobian_block_solve(self.g0, active, ka, -residual[active])
+        if not ok:
+            raise StepConvergenceError("Newton Jacobian I + G0 diag(k) is singular", float("nan"), 0)
+        delta = -residual - self.g0[:, active] @ (ka * delta_a)
+        delta[active] = delta_a
+        return delta, 0
+
+
+# --------------------------------------------------------------------------------------------
+# FFT substrate: matrix-free Newton-Krylov
+# --------------------------------------------------------------------------------------------
+def _norm(x: np.ndarray) -> float:
+    """Euclidean norm without BLAS (multi-threaded BLAS-1 calls stalled on a busy machine)."""
+    x = x.ravel()
+    return math.sqrt(float(np.einsum("i,i->", x, x)))
+
+
+class FFTSubstrate:
+    """G_0 applied by FFT convolution; corrections by right-preconditioned GMRES (matrix-free).
+
+    The GMRES target for J delta = -R is ||J delta + R||_2 <= max(eta ||R||_2, tolerance / 4):
+    eta follows Eisenstat-Walker choice 2 (gamma = 0.9, exponent 2, safeguarded, capped at
+    ``eta_max``) over the iterations of a step; the absolute floor tolerance / 4 bounds the linear
+    error's max-norm by tolerance / 4, so the Newton residual can reach the tolerance without
+    over-solving earlier iterations. The polishing correction is solved to 1e-3 of ||R||_2. The
+    block-Jacobi preconditioner is factorised for the current k at the first iteration of a step,
+    again only after a GMRES solve that needed more than ``refresh_after`` products, and before
+    polishing; it only steers GMRES, the Jacobian products always use the current k.
+
+    Parameters
+    ----------
+    conv : OffsetConvolution
+        Kernel; its lag 0 is G_0.
+    tolerance : float
+        The Newton tolerance on max|R| [m] (sets the linear floor).
+    block : int
+        Tile edge [elements] of the block-Jacobi preconditioner (1 = Jacobi).
+    eta_max : float
+        Largest inexact-Newton forcing term (relative GMRES tolerance), 0 < eta_max < 1.
+    krylov_restart, krylov_max : int
+        GMRES restart length and limit on matrix-vector products per correction.
+    refresh_after : int
+        See above (0: refactorise at every iteration).
+    """
+
+    def __init__(
+        self,
+        conv: OffsetConvolution,
+        tolerance: float,
+        block: int = 4,
+        eta_max: float = 0.1,
+        krylov_restart: int = 60,
+        krylov_max: int = 600,
+        refresh_after: int = 8,
+    ):
+        if not isinstance(conv, OffsetConvolution):
+            raise TypeError(f"conv: expected OffsetConvolution, got {type(conv).__name__}")
+        self.conv = conv
+        self.tolerance = checks.real("tolerance", tolerance, positive=True)
+        if not 0.0 < eta_max < 1.0:
+            raise ValueError(f"eta_max: expected 0 < eta_max < 1, got {eta_max!r}")
+        self.eta_max = float(eta_max)
+        self.krylov_restart = checks.integer("krylov_restart", krylov_restart)
+        self.krylov_max = checks.integer("krylov_max", krylov_max)
+        self.refresh_after = checks.integer("refresh_after", refresh_after, minimum=0)
+        self.preconditioner = BlockJacobiPreconditioner(conv, block)
+        self.begin_step()
+
+    def instant(self, force: np.ndarray) -> np.ndarray:
+        """G_0 F [m], shape (M,), by one FFT convolution."""
+        return self.conv.apply_lag(force, 0).ravel()
+
+    def begin_step(self) -> None:
+        """Reset the forcing term and ask for a fresh preconditioner."""
+        self._eta = self.eta_max
+        self._r2_prev = None
+        self._last_products = None
+
+    def _matvec(self, stiffness: np.ndarray):
+        def matvec(v):
+            return v + self.instant(stiffness * v)
+
+        return matvec
+
+    def _psolve(self, v):
+        return self.preconditioner.solve(v).ravel()
+
+    def correction(self, stiffness: np.ndarray, residual: np.ndarray, polish: bool) -> tuple[np.ndarray, int]:
+        """Inexact solution of (I + G_0 diag(k)) delta = -r by preconditioned GMRES."""
+        r2 = _norm(residual)
+        if polish:
+            self.preconditioner.update(stiffness.reshape(self.conv.shape))
+            target = 1e-3 * r2
+        else:
+            if self._r2_prev is not None:
+                # Eisenstat-Walker choice 2 with safeguard, from the decrease of ||R||_2
+                eta_new = 0.9 * (r2 / self._r2_prev) ** 2
+                if 0.9 * self._eta**2 > 0.1:
+                    eta_new = max(eta_new, 0.9 * self._eta**2)
+                self._eta = min(self.eta_max, eta_new)
+            if self._last_products is None or self._last_products > self.refresh_after:
+                self.preconditioner.update(stiffness.reshape(self.conv.shape))
+            target = max(self._eta * r2, 0.25 * self.tolerance)
+        delta, products, linear = gmres(
+            self._matvec(stiffness), self._psolve, -residual, target, self.krylov_restart, self.krylov_max
+        )
+        if linear > target:
+            logger.debug("GMRES stopped at ||J d + R|| = %.3e > target %.3e after %d products", linear, target, products)
+        if not polish:
+            self._r2_prev = r2
+            self._last_products = products
+        return delta, products
