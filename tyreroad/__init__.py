@@ -1,16 +1,25 @@
 """tyreroad: time-domain contact between a visco-elastic tyre tread and a rough road.
 
-Reproduces and extends Winroth, Andersson & Kropp, "Importance of tread inertia and damping on the
-tyre/road contact stiffness", J. Sound Vib. 333 (2014), doi:10.1016/j.jsv.2014.06.014.
+Reproduces and extends the study of :data:`SEED_REFERENCE` (Winroth, Andersson & Kropp, J. Sound
+Vib. 2014), cited in one place: every module refers to this constant.
 
 Modules, one per concept: ``surface`` (road patches), ``scans`` (measured scans), ``springs`` (element
 contact springs), ``material`` (visco-elastic tread), ``layer`` (layer compliance), ``greens``
-(element Green's functions), ``contact`` (time-stepping contact solver), ``study`` (aggregation),
+(element Green's functions), ``contact`` (time-marching contact solver), with ``loading`` (prescribed motions), ``history``
+(displacement from past forces), ``newton`` (the step solve), ``convolution`` (FFT sums), ``study`` (aggregation),
 ``report`` (claims table), ``plots`` (figures), ``io`` (netCDF with provenance), ``pipeline``
 (one function per workflow stage), ``reference`` (analytic oracles).
 """
 
 from importlib.metadata import PackageNotFoundError, version
+
+#: The study tyreroad reproduces. The DOI is left out on purpose: three different DOIs had been
+#: cited in this code base and none could be checked against the publisher here; volume, issue
+#: and pages agree in every source that gives them.
+SEED_REFERENCE = (
+    "Winroth, J., Andersson, P. B. U., & Kropp, W. (2014). Importance of tread inertia and damping on "
+    "the tyre/road contact stiffness. Journal of Sound and Vibration 333(21), 5378-5385."
+)
 
 try:
     __version__ = version("tyreroad")
@@ -28,4 +37,4 @@ def open_study(path):
     return _open_study(path)
 
 
-__all__ = ["__version__", "open_study"]
+__all__ = ["__version__", "SEED_REFERENCE", "open_study"]

@@ -52,8 +52,7 @@ Choices (where the specification left one)
 References
 ----------
 Love, A. E. H. (1929), Phil. Trans. R. Soc. A 228, 377. doi:10.1098/rsta.1929.0009
-Winroth, J., Andersson, P. B. U., Kropp, W. (2014), Importance of tread inertia and damping on the
-tyre/road contact stiffness, J. Sound Vib. (the element Green's function and its time-domain use).
+The seed study, :data:`tyreroad.SEED_REFERENCE` (the element Green's function and its time-domain use).
 """
 
 from __future__ import annotations
