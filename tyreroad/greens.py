@@ -68,7 +68,7 @@ import scipy.special as sp
 import xarray as xr
 from numba import njit, prange
 
-from tyreroad import layer
+from tyreroad import checks, layer
 from tyreroad.reference import love
 
 logger = logging.getLogger(__name__)
@@ -121,13 +121,12 @@ class GreensSettings:
     n_fft: int = 4096
 
     def __post_init__(self):
-        fs = self.sample_rate
-        if isinstance(fs, bool) or not isinstance(fs, (int, float)) or not math.isfinite(fs) or fs <= 0:
-            raise ValueError(f"greens.sample_rate must be a positive finite number [Hz], got {fs!r}")
+        fs = checks.real("greens.sample_rate", self.sample_rate, positive=True)
         for key in ("n_lags", "n_fft"):
             v = getattr(self, key)
-            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
-                raise ValueError(f"greens.{key} must be a positive integer, got {v!r}")
+            if isinstance(v, float):
+                raise ValueError(f"greens.{key}: expected an integer >= 1, got {v!r}")
+            checks.integer(f"greens.{key}", v)
         n = int(self.n_fft)
         if n < _MIN_N_FFT or n & (n - 1):
             raise ValueError(f"greens.n_fft must be a power of two >= {_MIN_N_FFT}, got {n}")
@@ -449,12 +448,10 @@ def offset_table_index(n_elements) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 def _check_n_elements(n_elements) -> tuple[int, int]:
     try:
-        nx, ny = (int(v) for v in n_elements)
+        nx, ny = n_elements
     except (TypeError, ValueError):
-        raise ValueError(f"n_elements must be a pair of positive integers (nx, ny), got {n_elements!r}") from None
-    if nx < 1 or ny < 1:
-        raise ValueError(f"n_elements must be positive, got {n_elements!r}")
-    return nx, ny
+        raise ValueError(f"n_elements: expected a pair of positive integers (nx, ny), got {n_elements!r}") from None
+    return checks.integer("n_elements[0]", nx), checks.integer("n_elements[1]", ny)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -678,12 +675,9 @@ def static_element_kernel(
 
 
 def _check_layer(poisson, density, thickness):
-    if not (0.0 <= float(poisson) < 0.5):
-        raise ValueError(f"poisson must be in [0, 0.5), got {poisson}")
-    if not float(density) > 0:
-        raise ValueError(f"density must be > 0 [kg/m^3], got {density}")
-    if not float(thickness) > 0:
-        raise ValueError(f"thickness must be > 0 [m], got {thickness}")
+    checks.poisson_ratio(poisson)
+    checks.real("density", density, positive=True)
+    checks.real("thickness", thickness, positive=True)
 
 
 def time_kernel(frf, n_fft: int, n_lags: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
