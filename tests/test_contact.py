@@ -478,7 +478,7 @@ def test_solve_run_from_stage_datasets():
     nx, ny = 4, 3
     z1 = realistic_z1(nx, ny, rng)
     k, f, step = punch_tables(nx * ny, rng, step=1e-5)
-    kernel, g_static = realistic_kernel(nx, ny, 16)
+    kernel, g_static = realistic_kernel(nx, ny, 40)
     n_zeta = k.shape[1]
     surface = xr.Dataset({"z1": (("ex", "ey"), z1)}, attrs={"element_size": ELEMENT})
     springs = xr.Dataset(
@@ -504,6 +504,10 @@ def test_solve_run_from_stage_datasets():
     assert "time" not in ds.coords and ds.sizes["step"] == 11
     with pytest.raises(ValueError, match="acceleration"):
         contact.solve_run(surface, springs, greens, mat, "quasistatic", 50.0, settings)
+    # a run longer than the kept lags, from a greens file without a tail: an error, not a truncation
+    short = greens.isel(lag=slice(0, 16))
+    with pytest.raises(ValueError, match=r"needs 34 steps .* greens.n_lags = 16 lags"):
+        contact.solve_run(surface, springs, short, mat, "dynamic", 500.0, settings)
     with pytest.raises(ValueError, match="mode"):
         contact.solve_run(surface, springs, greens, mat, "static", 0.0, settings)
 
@@ -574,6 +578,12 @@ class StaircaseLoading:
     def describe(self, n):
         return f"stair {n}"
 
+    def done(self, n, force):
+        return False
+
+    def unfinished(self, n):
+        return None
+
     def prescribed(self):
         field = self.gap0[None, :] + self.d[:, None] + self.tilt[None, :]
         return {"free_compression": (field.reshape(self.n_steps, 4, 3), "m", "prescribed z1 - z2 per element")}
@@ -590,7 +600,7 @@ def test_extra_history_and_new_loading_plug_into_the_march():
     nx, ny = 4, 3
     z1 = realistic_z1(nx, ny, rng)
     k, f, step = punch_tables(nx * ny, rng)
-    kernel, _ = realistic_kernel(nx, ny, 16)
+    kernel, _ = realistic_kernel(nx, ny, 48)
     settings = SolverSettings(d_max=2e-4)
     table = SpringTable.checked(k, f, step, nx * ny)
     d = 0.5 * 500.0 * (np.arange(40) / 51200.0) ** 2 + 1e-5
@@ -616,7 +626,7 @@ def test_extra_history_and_new_loading_plug_into_the_march():
     n_steps = d.size
     forces = res.element_force.reshape(n_steps, -1)
     w = np.zeros((n_steps, nx * ny))
-    for lag in range(kernel.shape[2]):
+    for lag in range(min(kernel.shape[2], n_steps)):
         w[lag:] += forces[: n_steps - lag] @ lag_matrix(kernel, lag).T
     free = np.stack([stairs.free_compression(n) for n in range(n_steps)])
     assert np.max(np.abs(res.compression.reshape(n_steps, -1) - (free - w))) <= settings.tolerance * 1.001

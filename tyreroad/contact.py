@@ -50,9 +50,10 @@ import xarray as xr
 
 from . import checks
 from .convolution import OffsetConvolution, check_offset_kernel
-from .history import DenseHistory, FFTHistory, History, HistorySum
+from .history import DenseHistory, FFTHistory, History, HistorySum, TailHistory
 from .layer import backing_force
-from .loading import IndentationPath, Loading, constant_acceleration_path, uniform_indentation_grid
+from .memory import TailModel
+from .loading import IndentationPath, Loading, LoadingPreset, constant_acceleration_path, uniform_indentation_grid
 from .newton import DenseSubstrate, FFTSubstrate, StepConvergenceError, Substrate, solve_step
 from .springs import SpringTable
 
@@ -72,7 +73,9 @@ __all__ = [
     "solve_dynamic",
     "solve_quasistatic",
     "solve_run",
+    "solve_loading",
     "contact_dataset",
+    "loading_dataset",
 ]
 
 #: Run modes, the ``{mode}`` wildcard of the contact files.
@@ -105,9 +108,13 @@ class SolverSettings:
         History sum and step solver. ``dense``: offset-table history and a direct solve of the
         Jacobian of the loaded elements (exact, the reference; O(M^2 L) per step). ``fft``: 2-D FFT
         history sums and a matrix-free Newton-Krylov solve (:mod:`tyreroad.convolution`;
-        O(M log M L) per step). ``auto`` (default) uses ``fft`` above ``FFT_THRESHOLD`` elements.
+        O(M log M L) per step). ``auto`` (default) uses ``fft`` above ``FFT_THRESHOLD`` elements and
+        for dynamic runs longer than the kernel's kept lags.
     preconditioner_block : int
         Tile edge [elements] of the block-Jacobi preconditioner of the ``fft`` path (default 4).
+    long_memory : bool
+        Add the kernel's tail beyond the kept lags (SPEC 9, :mod:`tyreroad.memory`) to runs longer
+        than the kept lags (default True). Off, such a run is an error naming the lags and steps.
     """
 
     tolerance: float = 1e-12
@@ -116,16 +123,23 @@ class SolverSettings:
     quasistatic_step: float = 1e-6
     method: str = "auto"
     preconditioner_block: int = 4
+    long_memory: bool = True
 
-    def resolved_method(self, n_elements: int) -> str:
-        """``dense`` or ``fft`` for a patch of ``n_elements`` elements."""
+    def resolved_method(self, n_elements: int, n_steps: int | None = None, n_lags: int | None = None) -> str:
+        """``dense`` or ``fft`` for a patch of ``n_elements`` elements (and a run of ``n_steps`` steps
+        on a kernel of ``n_lags`` lags): ``auto`` takes the FFT path above ``FFT_THRESHOLD`` elements
+        and for dynamic runs longer than the kept lags, where the dense lag sum dominates (a 20 x 20
+        load-unload cycle of 755 steps: 38 s dense, 5 s FFT, forces equal to 4e-14)."""
         if self.method == "auto":
-            return "fft" if n_elements > FFT_THRESHOLD else "dense"
+            long_run = n_steps is not None and n_lags is not None and n_lags > 1 and n_steps > n_lags
+            return "fft" if n_elements > FFT_THRESHOLD or long_run else "dense"
         return self.method
 
     def __post_init__(self) -> None:
         if self.method not in ("auto", "dense", "fft"):
             raise ValueError(f"solver.method: expected 'auto', 'dense' or 'fft', got {self.method!r}")
+        if not isinstance(self.long_memory, bool):
+            raise ValueError(f"solver.long_memory: expected true or false, got {self.long_memory!r}")
         for key in ("tolerance", "d_max", "quasistatic_step"):
             checks.real(f"solver.{key}", getattr(self, key), positive=True)
         for key in ("max_iterations", "preconditioner_block"):
@@ -244,20 +258,22 @@ class RunRecorder:
         self.krylov_iterations[n] = step.krylov_iterations
         self.residual[n] = step.residual
 
-    def result(self, loading: Loading) -> ContactResult:
-        """The :class:`ContactResult` of the recorded steps."""
-        shape3 = (self.force.shape[0],) + tuple(self.shape)
+    def result(self, loading: Loading, n_steps: int | None = None) -> ContactResult:
+        """The :class:`ContactResult` of the first ``n_steps`` recorded steps (default all)."""
+        n = self.force.shape[0] if n_steps is None else n_steps
+        shape3 = (n,) + tuple(self.shape)
+        prescribed = {k: (v[:n], units, name) for k, (v, units, name) in loading.prescribed().items()}
         return ContactResult(
-            time=None if loading.time is None else np.asarray(loading.time, dtype=float),
-            prescribed=loading.prescribed(),
-            force=self.force.sum(axis=1),
-            element_force=self.force.reshape(shape3),
-            compression=self.compression.reshape(shape3),
-            displacement=self.displacement.reshape(shape3),
-            contact_count=self.contact_count,
-            newton_iterations=self.newton_iterations,
-            krylov_iterations=self.krylov_iterations,
-            residual=self.residual,
+            time=None if loading.time is None else np.asarray(loading.time, dtype=float)[:n],
+            prescribed=prescribed,
+            force=self.force[:n].sum(axis=1),
+            element_force=self.force[:n].reshape(shape3),
+            compression=self.compression[:n].reshape(shape3),
+            displacement=self.displacement[:n].reshape(shape3),
+            contact_count=self.contact_count[:n],
+            newton_iterations=self.newton_iterations[:n],
+            krylov_iterations=self.krylov_iterations[:n],
+            residual=self.residual[:n],
         )
 
 
@@ -300,7 +316,8 @@ def march(
     Raises
     ------
     ContactConvergenceError
-        Naming the step, the loading's position (e.g. d) and the residual; nothing is returned.
+        Naming the step, the loading's position (e.g. d) and the residual; or, for a loading that
+        must end early (a cycle: once every element has separated), that its path ran out first.
     """
     n_steps = loading.n_steps
     zeta = loading.rest_compression()
@@ -316,12 +333,18 @@ def march(
         b_prev, zeta = b, step.zeta
         history.record(n, step.force)
         recorder.store(n, step, h + substrate.instant(step.force))
-        if n % report_every == 0 or n == n_steps - 1:
+        finished = loading.done(n, step.force)
+        if finished or n % report_every == 0 or n == n_steps - 1:
             logger.info(
-                "step %d/%d: %s, F = %.5e N, %d elements in contact, %d Newton / %d Krylov iterations",
+                "step %d/%d: %s, F = %.5e N, %d elements in contact, %d Newton / %d Krylov iterations%s",
                 n, n_steps - 1, loading.describe(n), step.force.sum(), recorder.contact_count[n],
-                step.newton_iterations, step.krylov_iterations,
+                step.newton_iterations, step.krylov_iterations, ", path complete" if finished else "",
             )
+        if finished:
+            return recorder.result(loading, n + 1)
+    message = loading.unfinished(n_steps - 1)
+    if message is not None:
+        raise ContactConvergenceError(f"contact run ended without completing its loading path: {message}")
     return recorder.result(loading)
 
 
@@ -333,8 +356,10 @@ def _set_threads(threads: int) -> None:
     numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
 
 
-def build_collaborators(kernel, shape, settings: SolverSettings, threads: int = 1) -> tuple[Substrate, History]:
-    """The substrate (G0, Newton linear solve) and kept-lag history of ``settings.method``.
+def build_collaborators(
+    kernel, shape, settings: SolverSettings, threads: int = 1, n_steps: int | None = None, tail=None
+) -> tuple[Substrate, History]:
+    """The substrate (G0, Newton linear solve) and history (kept lags, and the tail) of ``settings.method``.
 
     Parameters
     ----------
@@ -346,19 +371,46 @@ def build_collaborators(kernel, shape, settings: SolverSettings, threads: int = 
         ``method`` picks dense or FFT; ``preconditioner_block`` and ``tolerance`` the FFT solver.
     threads : int
         FFT workers and numba threads.
+    n_steps : int, optional
+        Steps of the run; a run longer than the kept lags of a dynamic (multi-lag) kernel needs
+        the tail.
+    tail : tyreroad.memory.TailModel, optional
+        The kernel beyond its kept lags; used when the run is longer than the kept lags and
+        ``settings.long_memory`` is on.
 
     Returns
     -------
     substrate, history
+
+    Raises
+    ------
+    ValueError
+        If the run needs more memory than the kernel provides (no tail, or long memory off).
     """
     nx, ny = shape
     g = check_offset_kernel(kernel, nx, ny)
-    if settings.resolved_method(nx * ny) == "fft":
+    n_lags = g.shape[2]
+    method = settings.resolved_method(nx * ny, n_steps, n_lags)
+    needs_tail = n_lags > 1 and n_steps is not None and n_steps > n_lags
+    if needs_tail and (tail is None or not settings.long_memory):
+        why = "solver.long_memory is off" if tail is not None else "the kernel has no tail (a greens file without one)"
+        raise ValueError(
+            f"the run needs {n_steps} steps of memory but the kernel keeps greens.n_lags = {n_lags} lags and "
+            f"{why}: switch solver.long_memory on (with a greens file from this version), or raise greens.n_lags "
+            f"to >= {n_steps}"
+        )
+    if method == "fft":
         conv = OffsetConvolution(g, shape, workers=threads)
-        logger.info("FFT/Newton-Krylov path: %d x %d elements, %d lags, padded grid %s", nx, ny, g.shape[2], conv.padded)
-        substrate = FFTSubstrate(conv, settings.tolerance, block=settings.preconditioner_block)
-        return substrate, FFTHistory(conv)
-    return DenseSubstrate(g[:, :, 0]), DenseHistory(g, shape)
+        logger.info("FFT/Newton-Krylov path: %d x %d elements, %d lags, padded grid %s", nx, ny, n_lags, conv.padded)
+        substrate, history = FFTSubstrate(conv, settings.tolerance, block=settings.preconditioner_block), FFTHistory(conv)
+    else:
+        substrate, history = DenseSubstrate(g[:, :, 0]), DenseHistory(g, shape)
+    if needs_tail:
+        if tail.delay != n_lags:
+            raise ValueError(f"tail: starts at lag {tail.delay}, but the kernel keeps {n_lags} lags")
+        logger.info("long memory: tail from lag %d, %d retardation terms", tail.delay, tail.weights.size)
+        history = HistorySum([history, TailHistory(tail, shape, method, workers=threads)])
+    return substrate, history
 
 
 def solve_path(
@@ -372,6 +424,7 @@ def solve_path(
     time=None,
     threads: int = 1,
     extra_histories: Sequence[History] = (),
+    tail=None,
 ) -> ContactResult:
     """Solve the contact of a flat tread surface along a prescribed indentation path.
 
@@ -399,7 +452,9 @@ def solve_path(
     threads : int
         numba threads and FFT workers.
     extra_histories : sequence of History
-        Further history terms added to the kept lags (e.g. the long-memory tail).
+        Further history terms added to the kept lags.
+    tail : tyreroad.memory.TailModel, optional
+        The kernel beyond its kept lags (SPEC 9): needed by runs longer than the kept lags.
 
     Returns
     -------
@@ -411,15 +466,21 @@ def solve_path(
         Naming the step, d and the residual, if a step does not converge.
     """
     loading = IndentationPath(z1, indentation, time)
-    nx, ny = loading.shape
-    springs = SpringTable.checked(stiffness, force, zeta_step, nx * ny)
+    springs = SpringTable.checked(stiffness, force, zeta_step, math.prod(loading.shape))
+    return _run(loading, springs, kernel, settings, threads, tail, extra_histories)
+
+
+def _run(loading, springs: SpringTable, kernel, settings: SolverSettings, threads: int, tail,
+         extra_histories: Sequence[History] = ()) -> ContactResult:
+    """Assemble the collaborators for a flat-patch loading and march."""
     if not isinstance(settings, SolverSettings):
         raise TypeError(f"settings: expected SolverSettings, got {type(settings).__name__}")
     _set_threads(threads)
-    substrate, history = build_collaborators(kernel, (nx, ny), settings, threads)
+    shape = loading.shape
+    substrate, history = build_collaborators(kernel, shape, settings, threads, loading.n_steps, tail)
     if extra_histories:
         history = HistorySum([history, *extra_histories])
-    return march(loading, springs, substrate, history, settings, RunRecorder(loading.n_steps, (nx, ny)))
+    return march(loading, springs, substrate, history, settings, RunRecorder(loading.n_steps, shape))
 
 
 def dynamic_indentation(sample_rate: float, acceleration: float, d_max: float) -> tuple[np.ndarray, np.ndarray]:
@@ -442,6 +503,7 @@ def solve_dynamic(
     acceleration: float,
     settings: SolverSettings,
     threads: int = 1,
+    tail=None,
 ) -> ContactResult:
     """Dynamic indentation d(t) = a t^2 / 2 with the time-domain kernel (seed Eq. 3-4).
 
@@ -463,6 +525,8 @@ def solve_dynamic(
         Tolerance, iteration limit and d_max.
     threads : int
         numba threads for the history sum.
+    tail : tyreroad.memory.TailModel, optional
+        The kernel beyond its kept lags, for runs longer than them (slow accelerations).
 
     Returns
     -------
@@ -471,7 +535,7 @@ def solve_dynamic(
     """
     time, d = dynamic_indentation(sample_rate, acceleration, settings.d_max)
     logger.info("dynamic run: a = %g m/s^2, fs = %g Hz, %d steps", acceleration, sample_rate, d.size)
-    return solve_path(z1, stiffness, force, zeta_step, kernel, d, settings, time=time, threads=threads)
+    return solve_path(z1, stiffness, force, zeta_step, kernel, d, settings, time=time, threads=threads, tail=tail)
 
 
 def solve_quasistatic(
@@ -513,6 +577,71 @@ def solve_quasistatic(
     return solve_path(z1, stiffness, force, zeta_step, gs[:, :, None], d, settings)
 
 
+def _stage_inputs(surface: xr.Dataset, springs: xr.Dataset, greens: xr.Dataset, mode: str):
+    """Road heights z1[ex, ey] and the spring tables of the stage datasets, checked against each other."""
+    if mode not in MODES:
+        raise ValueError(f"mode: expected one of {MODES}, got {mode!r}")
+    z1 = surface["z1"].transpose("ex", "ey").values
+    table = SpringTable.from_dataset(springs)
+    c_surface, c_greens = surface.attrs.get("element_size"), greens.attrs.get("element_size")
+    if c_surface is not None and c_greens is not None and not math.isclose(float(c_surface), float(c_greens), rel_tol=1e-9):
+        raise ValueError(f"element_size differs: surface {c_surface} m, greens {c_greens} m")
+    return z1, table
+
+
+def _backing(result: ContactResult, greens: xr.Dataset, material) -> np.ndarray:
+    """Backing force of a dynamic run at the greens file's sample rate."""
+    n_fft = int(float(greens.attrs.get("n_fft", 4096)))
+    return backing_force(result.force, material, float(greens.attrs["sample_rate"]), max(n_fft, 4096))
+
+
+def solve_loading(
+    surface: xr.Dataset,
+    springs: xr.Dataset,
+    greens: xr.Dataset,
+    material,
+    mode: str,
+    preset: LoadingPreset,
+    settings: SolverSettings,
+    threads: int = 1,
+) -> ContactResult:
+    """One run of a loading preset (cycle, harmonic, table, ...; SPEC 10) from the stage datasets.
+
+    Dynamic runs use the time-domain kernel with its long-memory tail and get the backing force;
+    quasi-static runs the static kernel (their backing force is the surface force).
+
+    Parameters
+    ----------
+    surface, springs, greens : xarray.Dataset
+        Contents of the surface, springs and greens files.
+    material : Material
+        The layer material.
+    mode : {"dynamic", "quasistatic"}
+        Run type.
+    preset : tyreroad.loading.LoadingPreset
+        The loading path.
+    settings : SolverSettings
+        Solver settings (``quasistatic_step`` samples quasi-static cycles).
+    threads : int
+        numba threads and FFT workers.
+
+    Returns
+    -------
+    ContactResult
+    """
+    z1, table = _stage_inputs(surface, springs, greens, mode)
+    loading = preset.loading(z1, mode, float(greens.attrs["sample_rate"]), settings.quasistatic_step)
+    springs_table = SpringTable.checked(table.stiffness, table.force, table.zeta_step, z1.size)
+    logger.info("%s run of loading %s (%s): %d steps", mode, preset.name, preset.kind, loading.n_steps)
+    if mode == "dynamic":
+        kernel = greens["g"].transpose("dx", "dy", "lag").values
+        result = _run(loading, springs_table, kernel, settings, threads, TailModel.from_greens(greens))
+        return dataclasses.replace(result, backing_force=_backing(result, greens, material))
+    kernel = greens["g_static"].transpose("dx", "dy").values[:, :, None]
+    result = _run(loading, springs_table, kernel, settings, threads, None)
+    return dataclasses.replace(result, backing_force=result.force.copy())
+
+
 def solve_run(
     surface: xr.Dataset,
     springs: xr.Dataset,
@@ -547,20 +676,15 @@ def solve_run(
     -------
     ContactResult
     """
-    if mode not in MODES:
-        raise ValueError(f"mode: expected one of {MODES}, got {mode!r}")
-    z1 = surface["z1"].transpose("ex", "ey").values
-    table = SpringTable.from_dataset(springs)
+    z1, table = _stage_inputs(surface, springs, greens, mode)
     stiffness, force, step = table.stiffness, table.force, table.zeta_step
-    c_surface, c_greens = surface.attrs.get("element_size"), greens.attrs.get("element_size")
-    if c_surface is not None and c_greens is not None and not math.isclose(float(c_surface), float(c_greens), rel_tol=1e-9):
-        raise ValueError(f"element_size differs: surface {c_surface} m, greens {c_greens} m")
     if mode == "dynamic":
         fs = float(greens.attrs["sample_rate"])
         kernel = greens["g"].transpose("dx", "dy", "lag").values
-        result = solve_dynamic(z1, stiffness, force, step, kernel, fs, acceleration, settings, threads)
-        n_fft = int(float(greens.attrs.get("n_fft", 4096)))
-        backing = backing_force(result.force, material, fs, max(n_fft, 4096))
+        result = solve_dynamic(
+            z1, stiffness, force, step, kernel, fs, acceleration, settings, threads, tail=TailModel.from_greens(greens)
+        )
+        backing = _backing(result, greens, material)
     else:
         if acceleration != 0:
             raise ValueError(f"acceleration: quasi-static runs use 0 m/s^2, got {acceleration!r}")
@@ -573,6 +697,42 @@ def solve_run(
 # --------------------------------------------------------------------------------------------
 # Dataset
 # --------------------------------------------------------------------------------------------
+def _result_dataset(result: ContactResult, attrs: dict) -> xr.Dataset:
+    """The step series of a run as a dataset (shared by seed and loading runs)."""
+    backing = result.force if result.backing_force is None else result.backing_force
+    n, nx, ny = result.element_force.shape
+    coords = {"step": ("step", np.arange(n), {"units": "1", "long_name": "step index"})}
+    # the prescribed motion as it is: a series per step becomes a coordinate, a field a variable
+    prescribed_fields = {}
+    for name, (values, units, long_name) in result.prescribed.items():
+        values = np.asarray(values)
+        dims = ("step",) if values.ndim == 1 else ("step", "ex", "ey")
+        target = coords if values.ndim == 1 else prescribed_fields
+        target[name] = (dims, values, {"units": units, "long_name": long_name})
+    coords["ex"] = ("ex", np.arange(nx), {"units": "1", "long_name": "element index along x"})
+    coords["ey"] = ("ey", np.arange(ny), {"units": "1", "long_name": "element index along y"})
+    if result.time is not None:
+        coords["time"] = ("step", result.time, {"units": "s", "long_name": "time since first contact"})
+    grid = ("step", "ex", "ey")
+    data_vars = {
+        "force": ("step", result.force, {"units": "N", "long_name": "total contact force at the layer surface"}),
+        "backing_force": ("step", np.asarray(backing, dtype=float),
+                          {"units": "N", "long_name": "total force at the rigid backing of the layer"}),
+        "contact_count": ("step", result.contact_count, {"units": "1", "long_name": "number of elements in contact"}),
+        "element_force": (grid, result.element_force, {"units": "N", "long_name": "contact spring force per element"}),
+        "compression": (grid, result.compression,
+                        {"units": "m", "long_name": "spring compression zeta (negative: gap)"}),
+        "displacement": (grid, result.displacement,
+                         {"units": "m", "long_name": "layer surface displacement w (into the layer)"}),
+        "newton_iterations": ("step", result.newton_iterations, {"units": "1", "long_name": "Newton iterations"}),
+        "krylov_iterations": ("step", result.krylov_iterations,
+                              {"units": "1", "long_name": "Krylov matrix-vector products (0: direct solve)"}),
+        "residual": ("step", result.residual, {"units": "m", "long_name": "final max-norm Newton residual"}),
+    }
+    data_vars.update(prescribed_fields)
+    return xr.Dataset(data_vars, coords=coords, attrs=attrs)
+
+
 def contact_dataset(
     result: ContactResult,
     mode: str,
@@ -605,39 +765,33 @@ def contact_dataset(
         raise ValueError(f"acceleration: quasi-static runs use 0 m/s^2, got {acceleration!r}")
     if mode == "dynamic" and (result.time is None or result.backing_force is None):
         raise ValueError("contact_dataset: a dynamic result needs time and backing_force")
-    backing = result.force if result.backing_force is None else result.backing_force
-    n, nx, ny = result.element_force.shape
-    coords = {"step": ("step", np.arange(n), {"units": "1", "long_name": "step index"})}
-    # the prescribed motion as it is: a series per step becomes a coordinate, a field a variable
-    prescribed_fields = {}
-    for name, (values, units, long_name) in result.prescribed.items():
-        values = np.asarray(values)
-        dims = ("step",) if values.ndim == 1 else ("step", "ex", "ey")
-        target = coords if values.ndim == 1 else prescribed_fields
-        target[name] = (dims, values, {"units": units, "long_name": long_name})
-    coords["ex"] = ("ex", np.arange(nx), {"units": "1", "long_name": "element index along x"})
-    coords["ey"] = ("ey", np.arange(ny), {"units": "1", "long_name": "element index along y"})
-    if result.time is not None:
-        coords["time"] = ("step", result.time, {"units": "s", "long_name": "time since first contact"})
-    grid = ("step", "ex", "ey")
-    data_vars = {
-        "force": ("step", result.force, {"units": "N", "long_name": "total contact force at the layer surface"}),
-        "backing_force": ("step", np.asarray(backing, dtype=float),
-                          {"units": "N", "long_name": "total force at the rigid backing of the layer"}),
-        "contact_count": ("step", result.contact_count, {"units": "1", "long_name": "number of elements in contact"}),
-        "element_force": (grid, result.element_force, {"units": "N", "long_name": "contact spring force per element"}),
-        "compression": (grid, result.compression,
-                        {"units": "m", "long_name": "spring compression zeta (negative: gap)"}),
-        "displacement": (grid, result.displacement,
-                         {"units": "m", "long_name": "layer surface displacement w (into the layer)"}),
-        "newton_iterations": ("step", result.newton_iterations, {"units": "1", "long_name": "Newton iterations"}),
-        "krylov_iterations": ("step", result.krylov_iterations,
-                              {"units": "1", "long_name": "Krylov matrix-vector products (0: direct solve)"}),
-        "residual": ("step", result.residual, {"units": "m", "long_name": "final max-norm Newton residual"}),
-    }
-    data_vars.update(prescribed_fields)
-    return xr.Dataset(
-        data_vars,
-        coords=coords,
-        attrs={"mode": mode, "acceleration": acceleration, "material": material_name, "surface": surface_name},
-    )
+    attrs = {"mode": mode, "acceleration": acceleration, "material": material_name, "surface": surface_name}
+    return _result_dataset(result, attrs)
+
+
+def loading_dataset(
+    result: ContactResult, mode: str, preset: LoadingPreset, surface_name: str, material_name: str
+) -> xr.Dataset:
+    """The file of a loading-preset run (docs/data_contracts.md "Loading dataset").
+
+    The step series of :func:`contact_dataset`, the preset (kind and its config as YAML) in the
+    attributes, and for paths that return to separation (cycles) the hysteresis: dissipated
+    energy W = closed integral of F dd [J] and the work done while loading [J].
+    """
+    import yaml
+
+    from .hysteresis import dissipated_energy, loading_work
+
+    if mode not in MODES:
+        raise ValueError(f"mode: expected one of {MODES}, got {mode!r}")
+    attrs = {"mode": mode, "loading": preset.name, "loading_kind": preset.kind,
+             "loading_config": yaml.safe_dump(preset.config, sort_keys=True),
+             "material": material_name, "surface": surface_name}
+    ds = _result_dataset(result, attrs)
+    if preset.separates:
+        d, f = result.indentation, result.force
+        ds["dissipated_energy"] = ((), dissipated_energy(d, f),
+                                   {"units": "J", "long_name": "dissipated energy W, closed integral of F dd"})
+        ds["loading_work"] = ((), loading_work(d, f),
+                              {"units": "J", "long_name": "work done on the tread while d increases"})
+    return ds

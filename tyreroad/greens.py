@@ -21,7 +21,10 @@ bonded to a rigid base, laterally infinite). It is split into
 
 Time domain: the FRF is sampled on f_j = j fs / N_fft and g[n] = irfft (numpy's, which includes
 1/N_fft, so that sum_n g[n] = g(omega = 0): a discrete impulse response in m/N that convolves a
-force sequence [N] into displacements [m]). The first ``n_lags`` samples are kept.
+force sequence [N] into displacements [m]). The first ``n_lags`` samples are kept, after removing the
+slow creep that the N_fft-point transform folds back from beyond its period (the tread creeps for
+seconds); the memory beyond the kept lags is stored as the tail of :mod:`tyreroad.memory`
+(``tail_compliance`` R and the retardation spectrum of the creep fit).
 
 The quasi-static kernel is g(omega = 0) computed with the material's quasi-static modulus and the
 static layer compliance H0 = 2 (1 - nu^2) / (E k) L(kh).
@@ -69,6 +72,7 @@ import xarray as xr
 from numba import njit, prange
 
 from tyreroad import checks, layer
+from tyreroad.memory import fit_retardation_spectrum, wrapped_creep
 from tyreroad.reference import love
 
 logger = logging.getLogger(__name__)
@@ -698,6 +702,8 @@ def time_kernel(frf, n_fft: int, n_lags: int) -> tuple[np.ndarray, np.ndarray, n
         g[n], n < L, shape (L, ...) [m/N]; sum over all n_fft samples equals frf[0].
     precursor_energy : numpy.ndarray
         Energy sum g[n]^2 over n >= n_fft/2 (negative time), shape (...) [m^2/N^2].
+    second_half_sum : numpy.ndarray
+        Sum of g[n] over n >= n_fft/2 [m/N] (the precursor and the causal creep there), shape (...).
     total_energy : numpy.ndarray
         Energy over all n_fft samples, shape (...) [m^2/N^2].
     """
@@ -707,7 +713,8 @@ def time_kernel(frf, n_fft: int, n_lags: int) -> tuple[np.ndarray, np.ndarray, n
     if not 1 <= n_lags <= n_fft // 2:
         raise ValueError(f"n_lags must be in 1 ... n_fft/2, got {n_lags}")
     g = np.fft.irfft(frf, n=n_fft, axis=0)
-    return g[:n_lags].copy(), np.sum(g[n_fft // 2 :] ** 2, axis=0), np.sum(g**2, axis=0)
+    second_half = g[n_fft // 2 :]
+    return g[:n_lags].copy(), np.sum(second_half**2, axis=0), np.sum(g**2, axis=0), second_half.sum(axis=0)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -769,21 +776,42 @@ def greens_dataset(
     kernel = np.empty((settings.n_lags, len(uniq)))
     pre = np.empty(len(uniq))
     tot = np.empty(len(uniq))
+    g_zero = np.empty(len(uniq))
+    second_half = np.empty(len(uniq))
     # group by group keeps the FRF of a 150 x 200 patch (2049 x 19k complex) out of memory
     for group in _offset_groups(offsets, c):
         frf = element_frf(offsets[group], c, omega, modulus, material.poisson, material.density, material.thickness)
-        kernel[:, group], pre[group], tot[group] = time_kernel(frf, settings.n_fft, settings.n_lags)
+        kernel[:, group], pre[group], tot[group], second_half[group] = time_kernel(
+            frf, settings.n_fft, settings.n_lags
+        )
+        g_zero[group] = frf[0].real
         if group[0] == 0:
             frf_excitation = frf[:, 0]
     g_static = static_element_kernel(offsets, c, material.quasi_static_modulus, material.poisson, material.thickness)
+
+    # long memory (SPEC 9, tyreroad.memory): remove the creep the n_fft-point transform folded back
+    # onto the kept lags; move the sum of the discarded non-causal precursor to lag 0 (a causal
+    # truncation that keeps the DC gain); the tail then holds exactly what the kept lags miss of g(0)
+    fs, n_fft, n_lags = settings.sample_rate, settings.n_fft, settings.n_lags
+    creep = fit_retardation_spectrum(material, fs / 2)
+    wrapped = wrapped_creep(creep, n_fft, n_lags, fs)
+    wrapped_half = wrapped_creep(creep, n_fft, n_fft // 2, fs, first=n_fft // 2).sum()
+    j = creep.creep(np.array([n_fft // 2 - 0.5, n_fft - 0.5]) / fs) / creep.relaxed_compliance
+    precursor_sum = second_half - g_zero * (wrapped_half + (j[1] - j[0]))
+    kept_before = float(kernel[:, 0].sum() / g_zero[0])
+    kernel -= wrapped[:, None] * g_zero[None, :]
+    kernel[0] += precursor_sum
+    tail_compliance = g_zero - kernel.sum(axis=0)
 
     dx, dy, index = offset_table_index((nx, ny))
     multiplicity = np.bincount(index.ravel(), minlength=len(uniq))
     precursor = float(np.sum(multiplicity * pre) / np.sum(multiplicity * tot))
     kept = float(kernel[:, 0].sum() / frf_excitation[0].real)
     logger.info(
-        "greens %s: g(0) = %.4g m/N, static %.4g m/N, kept fraction %.4f, precursor energy %.2e; %.1f s",
-        material.name, frf_excitation[0].real, g_static[0], kept, precursor, time.perf_counter() - t0,
+        "greens %s: g(0) = %.4g m/N, static %.4g m/N, kept fraction %.4f (%.4f before removing the wrapped "
+        "creep %.4f and adding the precursor sum %.4f to lag 0), precursor energy %.2e; %.1f s",
+        material.name, frf_excitation[0].real, g_static[0], kept, kept_before, wrapped.sum(),
+        precursor_sum[0] / g_zero[0], precursor, time.perf_counter() - t0,
     )
     g_table = np.ascontiguousarray(np.moveaxis(kernel[:, index], 0, -1))
     ds = xr.Dataset(
@@ -804,6 +832,33 @@ def greens_dataset(
                 precursor,
                 _attrs("1", "energy of the discarded non-causal part (n >= n_fft/2) over total energy"),
             ),
+            "precursor_sum_fraction": (
+                (),
+                float(precursor_sum[0] / g_zero[0]),
+                _attrs("1", "sum of the discarded non-causal precursor over g(omega=0) at the excitation element, "
+                       "added to lag 0"),
+            ),
+            "wrapped_creep_fraction": (
+                (),
+                float(wrapped.sum()),
+                _attrs("1", "creep beyond n_fft samples the inverse FFT had folded onto the kept lags, "
+                       "removed from g, over g(omega=0)"),
+            ),
+            "tail_compliance": (
+                ("dx", "dy"),
+                tail_compliance[index],
+                _attrs("m/N", "static compliance beyond the kept lags, R = g(omega=0) - sum of g over the lags"),
+            ),
+            "retardation_time": (
+                "retardation",
+                creep.times,
+                _attrs("s", "retardation times tau_k of the creep fit J(t) = J_g + sum J_k (1 - exp(-t/tau_k))"),
+            ),
+            "retardation_compliance": (
+                "retardation",
+                creep.compliances,
+                _attrs("1/Pa", "retardation compliances J_k of the creep fit"),
+            ),
         },
         coords={
             "dx": ("dx", dx, _attrs("1", "offset in x [elements]")),
@@ -821,6 +876,8 @@ def greens_dataset(
             "poisson": float(material.poisson),
             "density": float(material.density),
             "thickness": float(material.thickness),
+            "glassy_compliance": creep.glassy_compliance,
+            "creep_fit_error": creep.fit_error,
         },
     )
     return ds

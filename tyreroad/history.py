@@ -31,7 +31,7 @@ from numba import njit, prange
 from . import checks
 from .convolution import OffsetConvolution, check_offset_kernel
 
-__all__ = ["History", "DenseHistory", "FFTHistory", "HistorySum"]
+__all__ = ["History", "DenseHistory", "FFTHistory", "TailHistory", "HistorySum"]
 
 
 @runtime_checkable
@@ -244,6 +244,90 @@ class FFTHistory:
             _accumulate_complex(g_re, g_im, *args)
         spec = (self._out_re + 1j * self._out_im).reshape(conv.spectrum_shape)
         return conv.field(spec).ravel()
+
+
+# --------------------------------------------------------------------------------------------
+# Long-memory tail (SPEC 9)
+# --------------------------------------------------------------------------------------------
+@njit(cache=True, parallel=True)
+def _tail_update(states, decays, weights, entering, filtered):  # pragma: no cover - numba
+    """s_k <- decay_k s_k + F_entering; filtered = sum_k weight_k s_k (per element, parallel)."""
+    n_terms, n_elem = states.shape
+    for m in prange(n_elem):
+        f = entering[m]
+        acc = 0.0
+        for k in range(n_terms):
+            s = decays[k] * states[k, m] + f
+            states[k, m] = s
+            acc += weights[k] * s
+        filtered[m] = acc
+
+
+class TailHistory:
+    """Lags L, L+1, ... of the kernel as R (x) c[l] (:class:`tyreroad.memory.TailModel`).
+
+    h_tail[n] = sum_m R[e - m] u_m[n],  u_m[n] = sum_{l >= L} c[l] F_m[n - l]. The time filter runs
+    recursively, one state per retardation term and element (s_k <- decay_k s_k + F[n - L]), fed
+    by a delay line of the last L force fields; the spatial sum is one product with R (a dense
+    matrix, or an FFT convolution for large patches). Cost and memory per step do not depend on
+    the length of the run.
+
+    Parameters
+    ----------
+    tail : TailModel
+        R[dx, dy] [m/N] (offsets -(nx-1) ... nx-1, a larger centred table is cropped), weights,
+        decays and the delay L.
+    shape : tuple of int
+        Patch (nx, ny).
+    method : {"dense", "fft"}
+        How the spatial sum with R is done.
+    workers : int
+        FFT workers (``fft`` only).
+    """
+
+    def __init__(self, tail, shape, method: str = "dense", workers: int = 1):
+        nx, ny = (checks.integer(f"shape[{i}]", v) for i, v in enumerate(shape))
+        r = check_offset_kernel(np.asarray(tail.residual_compliance, dtype=float)[:, :, None], nx, ny, "tail R")
+        self.shape = (nx, ny)
+        self.delay = checks.integer("tail delay", tail.delay)
+        self._decays = np.ascontiguousarray(tail.decays, dtype=float)
+        self._weights = np.ascontiguousarray(tail.weights, dtype=float)
+        n_elem = nx * ny
+        self._states = np.zeros((self._decays.size, n_elem))
+        self._delay_line = np.zeros((self.delay, n_elem))
+        self._filtered = np.zeros(n_elem)
+        self._updated_for = -1
+        if method == "fft":
+            self._conv = OffsetConvolution(r, self.shape, workers=workers)
+            self._spatial = lambda u: self._conv.apply_lag(u, 0).ravel()
+        elif method == "dense":
+            from .newton import offset_matrix
+
+            self._matrix = offset_matrix(r[:, :, 0])
+            self._spatial = lambda u: self._matrix @ u
+        else:
+            raise ValueError(f"method: expected 'dense' or 'fft', got {method!r}")
+        self._steps = _StepCounter()
+
+    @property
+    def nbytes(self) -> int:
+        """Memory of the delay line and the filter states [B]."""
+        return self._states.nbytes + self._delay_line.nbytes
+
+    def displacement(self, n: int) -> np.ndarray:
+        """h_tail[n] [m], shape (M,): zero until a force is L steps old."""
+        self._steps.check_displacement(n, "TailHistory")
+        if n < self.delay:
+            return np.zeros(self._filtered.size)
+        if self._updated_for != n:  # the filter advances once per step, however often it is asked
+            _tail_update(self._states, self._decays, self._weights, self._delay_line[n % self.delay], self._filtered)
+            self._updated_for = n
+        return self._spatial(self._filtered)
+
+    def record(self, n: int, force: np.ndarray) -> None:
+        """F[n] [N] enters the delay line (it reaches the filter at step n + L)."""
+        self._steps.check_record(n, "TailHistory")
+        self._delay_line[n % self.delay] = np.ravel(force)
 
 
 class HistorySum:
