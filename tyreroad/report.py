@@ -685,7 +685,8 @@ def _surface_section(surface: xr.Dataset) -> list[str]:
     return lines + [""]
 
 
-def _material_section(greens: dict[str, xr.Dataset], materials: Sequence[str], variants: Mapping[str, Any], ref: str) -> list[str]:
+def _material_section(greens: dict[str, xr.Dataset], materials: Sequence[str], variants: Mapping[str, Any], ref: str,
+                      run_note: str = "") -> list[str]:
     scale = {m: ("", "") for m in materials}
     for kind, col in (("loss", 0), ("density", 1)):
         for s, m in variant_members(variants, kind, materials, ref):
@@ -727,8 +728,8 @@ def _material_section(greens: dict[str, xr.Dataset], materials: Sequence[str], v
     lines += [
         "",
         "- *kept g(0) fraction*: share of the static compliance g(ω = 0) at the excitation element that the "
-        "kept time lags of the kernel hold (the rest is slow creep beyond the kernel; the study's runs are "
-        "shorter than the kept lags).",
+        "kept time lags of the kernel hold (the rest is slow creep beyond the kernel's memory)"
+        + (f"; {run_note}." if run_note else "."),
         "- *precursor energy*: energy of the discarded non-causal part of the inverse FFT (samples at "
         "negative time) over the kernel's total energy; small means the time-domain kernel is causal.",
     ]
@@ -984,7 +985,14 @@ def build_report(
     if surface is not None:
         lines += _surface_section(surface)
     materials = [str(m) for m in dict.fromkeys(study["material"].values.astype(str))]
-    lines += _material_section(greens_by, materials, variants, settings.reference_material)
+    lags = {int(float(ds.attrs["n_lags"])) for ds in greens_by.values() if "n_lags" in ds.attrs}
+    run_note = ""
+    if lags and "native_samples" in study:
+        longest = int(study.study.select(mode="dynamic")["native_samples"].max())
+        run_note = (f"the longest dynamic run has {longest} steps, the kernel keeps {min(lags)} lags: "
+                    + ("the runs never reach beyond the kept memory" if longest <= min(lags) else
+                       "longer runs need the kernel's long-memory tail"))
+    lines += _material_section(greens_by, materials, variants, settings.reference_material, run_note)
     lines += ["## Config", "", "```yaml", io.config_yaml(config).rstrip(), "```", ""]
     return "\n".join(lines)
 
