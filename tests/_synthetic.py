@@ -57,3 +57,40 @@ def synthetic_run(material, mode, accel, force_fn, fraction_fn=None, backing_sca
     }
     attrs = {"mode": mode, "acceleration": float(accel), "material": material, "surface": surface}
     return xr.Dataset(data, coords=coords, attrs=attrs)
+
+
+def append_unloading(run, hold_steps=5, unload_steps=40, recovery=0.6):
+    """A copy of ``run`` continued by a hold at its last indentation and an unloading back to d = 0.
+
+    The continuation is a load-unload cycle as a cycle path would write it (SPEC 10): the force
+    relaxes during the hold and follows a lower unloading curve (``recovery`` times the loading
+    force at the same d), so F is not a function of d on the whole path. The time axis (dynamic
+    runs) continues with the run's step.
+    """
+    d = run["indentation"].values
+    f = run["force"].values
+    d_top = d[-1]
+    d_new = np.concatenate([np.full(hold_steps, d_top), np.linspace(d_top, 0.0, unload_steps + 1)[1:]])
+    f_new = recovery * np.interp(d_new, d, f)
+    n_old, n_add = d.size, d_new.size
+    out = {}
+    for name, var in run.data_vars.items():
+        v = var.values
+        if name == "force" or name == "backing_force":
+            scale = v[-1] / f[-1] if f[-1] else 1.0
+            add = scale * f_new
+        elif name == "contact_count":
+            add = np.round(np.interp(d_new, d, v) * recovery)
+        else:
+            add = np.repeat(v[-1:], n_add, axis=0)
+        out[name] = (var.dims, np.concatenate([v, add], axis=0), var.attrs)
+    coords = {
+        "step": ("step", np.arange(n_old + n_add), run["step"].attrs),
+        "indentation": ("step", np.concatenate([d, d_new]), run["indentation"].attrs),
+        "ex": run["ex"],
+        "ey": run["ey"],
+    }
+    if "time" in run.coords:
+        t = run["time"].values
+        coords["time"] = ("step", np.concatenate([t, t[-1] + (t[1] - t[0]) * np.arange(1, n_add + 1)]), run["time"].attrs)
+    return xr.Dataset(out, coords=coords, attrs=dict(run.attrs))

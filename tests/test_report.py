@@ -20,10 +20,14 @@ import xarray as xr
 from _synthetic import synthetic_run
 from tyreroad import io
 from tyreroad.report import (
+    CLAIMS,
     THRESHOLDS,
+    VERDICTS,
+    ClaimResult,
     build_report,
     count_growth_peak,
     evaluate_claims,
+    loss_direction_verdict,
     quasistatic_resampling_check,
     ripple,
     write_report,
@@ -61,7 +65,7 @@ class RunSpec:
         return self.S * (d - self.s * (1 - np.exp(-d / self.s))) + amp * np.sin(2 * np.pi * d / lam) * np.exp(-d / dr)
 
 
-SCALE = {"ref": 1.0, "mat-b": 1.025, "mat-c": 0.97, "mat-d": 0.995, "mat-e": 1.01}
+SCALE = {"ref": 1.0, "mat-b": 0.975, "mat-c": 1.03, "mat-d": 0.995, "mat-e": 1.01}  # mat-b: eta x0.5, mat-c: eta x1.5
 RIPPLE = {"ref": 0.01, "mat-b": 0.01, "mat-c": 0.01, "mat-d": 0.005, "mat-e": 0.05}
 
 
@@ -200,7 +204,8 @@ def test_all_claims_pass_with_the_expected_numbers(passing_study):
     assert max(res[4].values["d_peak"].values()) <= 2e-6  # fraction ~ 1 - exp(-d/0.05 mm): fastest at d = 0
     assert res[5].values["fraction"] == pytest.approx(0.5, abs=3e-3)
     assert res[5].values["change"] < 0.02
-    assert res[6].values["delta"] == pytest.approx({0.5: 0.025, 1.5: -0.03}, abs=2e-3)
+    assert res[6].values["delta"] == pytest.approx({0.5: -0.025, 1.5: 0.03}, abs=2e-3)
+    assert res[6].verdict == "holds" and "higher η → stiffer" in res[6].measured
     assert res[7].values["delta"] == pytest.approx({0.5: -0.005, 2.0: 0.01}, abs=2e-3)
     assert 2.5 < res[7].values["ripple_ratio"] < 7.0  # K ripple amplitudes 0.05 vs 0.01
     assert res[8].values["saturated_stiffness"] == pytest.approx(2.75e6 * sat, rel=2e-3)
@@ -299,6 +304,71 @@ def test_each_claim_fails_on_contradicting_data(modify, failing, still_passing):
         assert res[n].passed is True, (n, res[n].measured)
 
 
+# ----------------------------------------------------------------------------------------------
+# claim 6: the direction as well as the size
+# ----------------------------------------------------------------------------------------------
+@pytest.mark.parametrize(
+    "scale_low, scale_high, verdict, measured",
+    [
+        (0.975, 1.03, "holds", "η×0.5: -2.50 %, η×1.5: +3.00 %; here higher η → stiffer"),
+        # the default study's numbers: eta x0.5 -> +3.3 %, eta x1.5 -> -2.2 %
+        (1.033, 0.978, "size holds, direction opposite", "η×0.5: +3.30 %, η×1.5: -2.20 %; here higher η → softer"),
+        (1.02, 1.03, "fails", "η×0.5: +2.00 %, η×1.5: +3.00 %; here higher η → stiffer"),  # not monotone in η
+        (0.975, 1.15, "fails", "η×1.5: +15.00 %"),  # direction right, size too large
+        (1.15, 0.975, "fails", "η×0.5: +15.00 %"),  # direction opposite, size too large
+    ],
+)
+def test_claim_6_verdict_by_sign_and_size(scale_low, scale_high, verdict, measured):
+    specs = passing_specs()
+    for m, scale in (("mat-b", scale_low), ("mat-c", scale_high)):
+        _set(specs, (m, "dynamic", 500.0), S=2.75e6 * scale)
+    res = by_number(evaluate_claims(make_study(specs), SETTINGS, VARIANTS))
+    assert res[6].verdict == verdict, res[6].measured
+    assert measured in res[6].measured
+    assert res[6].values["delta"] == pytest.approx({0.5: scale_low - 1, 1.5: scale_high - 1}, abs=1e-3)
+    assert res[6].passed is (verdict == "holds")
+    assert all(res[n].passed for n in (1, 2, 7, 8, 9, 10))
+
+
+def test_loss_direction_verdict():
+    t = dict(delta_max=0.10, delta_min=0.005)
+    assert loss_direction_verdict({0.5: -0.03, 1.5: 0.02}, **t) == "holds"
+    assert loss_direction_verdict({1.5: 0.02}, **t) == "holds"
+    assert loss_direction_verdict({0.5: 0.033, 1.5: -0.022}, **t) == "size holds, direction opposite"
+    assert loss_direction_verdict({0.5: 0.033}, **t) == "size holds, direction opposite"
+    assert loss_direction_verdict({0.5: -0.03, 1.5: -0.02}, **t) == "fails"
+    assert loss_direction_verdict({0.5: 0.0, 1.5: 0.02}, **t) == "fails"  # no change is no direction
+    assert loss_direction_verdict({0.5: -0.001, 1.5: 0.002}, **t) == "fails"  # too small
+    assert loss_direction_verdict({0.5: 0.2, 1.5: -0.02}, **t) == "fails"  # too large
+    assert loss_direction_verdict({}, **t) == "not evaluated"
+
+
+def test_claims_registry():
+    assert sorted(CLAIMS) == list(range(1, 11))
+    assert len({fn.__name__ for fn in CLAIMS.values()}) == 10
+    with pytest.raises(ValueError, match="verdict must be one of"):
+        ClaimResult(1, "c", "t", "m", "PASS", {})
+    assert VERDICTS == ("holds", "size holds, direction opposite", "fails", "not evaluated")
+
+
+def test_report_shows_claim_6_direction_opposite_and_equivalent_scale():
+    specs = passing_specs()
+    _set(specs, ("mat-b", "dynamic", 500.0), S=2.75e6 * 1.033)
+    _set(specs, ("mat-c", "dynamic", 500.0), S=2.75e6 * 0.978)
+    greens = [greens_dataset(m, 1100.0) for m in MATERIALS]
+    text = build_report(make_study(specs), None, greens, SETTINGS, VARIANTS)
+    row6 = next(line for line in text.splitlines() if line.startswith("| 6 |"))
+    assert row6.rstrip().endswith("**size holds, direction opposite** |")
+    assert "η×0.5: +3.30 %, η×1.5: -2.20 %" in row6
+    assert "## Seed claims: 9 of 10 evaluated hold, 1 holds in size with the opposite direction\n" in text
+    assert "## What decides claims 5–7" in text and "**Claim 6 (size holds, direction opposite).**" in text
+    # equivalent quasi-static stiffness: the synthetic K_a / K_QS = S_a / S_QS apart from the 1 % ripple
+    assert "## Equivalent quasi-static stiffness" in text
+    for a, S in S_REF.items():
+        if a:
+            assert f"s({a:g} m/s²) = {S / S_REF[0.0]:.3f} (misfit 0.0" in text
+
+
 def test_claims_6_7_not_evaluated_without_variants(passing_study):
     only_ref = {"loss": [[1.0, "ref"]], "density": [[1.0, "ref"]]}
     res = by_number(evaluate_claims(passing_study, SETTINGS, only_ref))
@@ -314,16 +384,17 @@ def test_report_markdown(tmp_path, passing_study):
     text = build_report(passing_study, surface_dataset(), greens, SETTINGS, VARIANTS)
     rows = [line for line in text.splitlines() if line.startswith("| ") and "**" in line]
     assert [int(r.split("|")[1]) for r in rows] == list(range(1, 11))
-    assert all(r.rstrip().endswith("**PASS** |") for r in rows)
+    assert all(r.rstrip().endswith("**holds** |") for r in rows)
     assert all(len(r.split(" | ")) == 5 for r in rows)  # no stray pipes inside cells
-    assert "10 of 10 evaluated pass" in text
+    assert "## Seed claims: 10 of 10 evaluated hold\n" in text
     assert "K_sat = 2.737 MN/m" in text  # claim 8: 2.75 (1 - exp(-5.375)) MN/m
-    assert "η×0.5: +2.50 %" in text and "ρ×2: +1.00 %" in text
+    assert "η×0.5: -2.50 %" in text and "ρ×2: +1.00 %" in text
     assert f"within ±{100 * THRESHOLDS['c8_rel_tol']:g} % of 2.75 MN/m" in text
     assert "| MPD (whole field, ISO 13473-1) | 0.520 mm |" in text
     assert "| skewness | -0.830 |" in text
     assert "| element peaks within 0.15 mm of the top | 51.0 % |" in text
-    mat_e = next(line for line in text.splitlines() if line.startswith("| mat-e |"))
+    materials_part = text[text.index("## Materials"):]
+    mat_e = next(line for line in materials_part.splitlines() if line.startswith("| mat-e |"))
     assert mat_e.startswith("| mat-e | — | 2 | 2200 | 0.49 | 10 | 22.2 MPa / 0.200 | 24.0 MPa / 0.200 |")
     assert "| ref/dynamic/500 | 2.7371 | 2.7507 | 0.501 | 577.71 |" in text
     assert io.config_hash({"x": 1}) not in text and "report config SHA-256: `" in text
@@ -336,5 +407,5 @@ def test_report_marks_failures(passing_study):
     fail_8(specs)
     text = build_report(make_study(specs), None, None, SETTINGS, VARIANTS)
     row8 = next(line for line in text.splitlines() if line.startswith("| 8 |"))
-    assert row8.rstrip().endswith("**FAIL** |") and "(-25." in row8
+    assert row8.rstrip().endswith("**fails** |") and "(-25." in row8
     assert "## Road surface" not in text

@@ -15,11 +15,15 @@ import xarray as xr
 import _synthetic
 from tyreroad import io
 from tyreroad.study import (
+    EQUIVALENT_RANGE,
     StudySettings,
     aggregate,
     case_label,
     contact_stiffness,
+    equivalent_modulus_scale,
     expected_cases,
+    interp_on_grid,
+    loading_branch,
     open_study,
     saturated_stiffness,
     variant_members,
@@ -187,6 +191,90 @@ def test_aggregate_run_ending_within_one_step_of_d_max_leaves_nan_not_extrapolat
     grid = ds["indentation"].values
     assert np.all(np.isnan(k[grid > d_last])) and np.all(np.isfinite(k[grid <= d_last]))
     assert np.isfinite(ds["saturated_stiffness"].values).all()
+
+
+# ----------------------------------------------------------------------------------------------
+# non-monotone indentation paths: K(d) on the initial loading branch
+# ----------------------------------------------------------------------------------------------
+def test_loading_branch():
+    assert loading_branch(np.array([0.0, 1.0, 2.0, 3.0])) == 4
+    assert loading_branch(np.array([0.0, 1.0, 2.0, 1.5, 0.5, 2.5])) == 3  # up to the first maximum
+    assert loading_branch(np.array([0.0, 1.0, 2.0, 2.0, 2.0, 1.0])) == 3  # a hold ends the branch
+    assert loading_branch(np.array([0.0, 0.0, 1.0])) == 1
+
+
+@pytest.mark.parametrize("mode, accel", [("dynamic", 500.0), ("quasistatic", 0.0)])
+def test_aggregate_load_unload_cycle_equals_its_loading_branch(mode, accel):
+    st = settings()
+    runs = study_runs(st)
+    i = expected_cases(st).index(("ref", mode, accel))
+    cycle = _synthetic.append_unloading(runs[i])
+    d_path = cycle["indentation"].values
+    assert np.any(np.diff(d_path) < 0) and np.any(np.diff(d_path) == 0)
+    plain = aggregate(runs, st)
+    runs[i] = cycle
+    ds = aggregate(runs, st)
+    for name in plain.data_vars:
+        if name == "run_samples":
+            continue
+        np.testing.assert_array_equal(ds[name].values, plain[name].values, err_msg=name)
+    c = ds.isel(case=i)
+    assert int(c["run_samples"]) == d_path.size
+    assert int(c["native_samples"]) == int(plain.isel(case=i)["native_samples"]) == loading_branch(d_path)
+    assert (plain["run_samples"].values == plain["native_samples"].values).all()
+
+
+def test_aggregate_cycle_whose_loading_branch_stops_short_is_an_error():
+    st = settings()
+    runs = study_runs(st)
+    short = synthetic_run("ref", "quasistatic", 0.0, force_saturating(2.0e6, DS), d_max=2.0e-4)
+    runs[0] = _synthetic.append_unloading(short)
+    with pytest.raises(ValueError, match="loading branch stops at d = 0.0002 m, short of solver.d_max"):
+        aggregate(runs, st)
+
+
+# ----------------------------------------------------------------------------------------------
+# equivalent quasi-static stiffness
+# ----------------------------------------------------------------------------------------------
+def test_equivalent_modulus_scale_is_the_least_squares_factor():
+    d = np.arange(251) * 1e-6
+    kq = 1.4e6 * (1 - np.exp(-d / DS))
+    kd = 2.7e6 * (1 - np.exp(-d / 2e-5))
+    s, misfit = equivalent_modulus_scale(d, kd, kq)
+    sel = (d >= 5e-5 - 1e-15) & (d <= 2.5e-4 + 1e-15)
+    coef = np.linalg.lstsq(kq[sel, None], kd[sel], rcond=None)[0][0]
+    assert s == pytest.approx(coef, rel=1e-12)
+    assert misfit == pytest.approx(np.sqrt(np.mean((kd[sel] - coef * kq[sel]) ** 2) / np.mean(kd[sel] ** 2)), rel=1e-12)
+    assert 0.01 < misfit < 0.2
+    assert equivalent_modulus_scale(d, 1.7 * kq, kq) == pytest.approx((1.7, 0.0), abs=1e-14)
+    kd_nan = kd.copy()
+    kd_nan[-10:] = np.nan  # NaN samples are left out, not propagated
+    assert np.isfinite(equivalent_modulus_scale(d, kd_nan, kq)[0])
+    assert EQUIVALENT_RANGE == pytest.approx((0.05e-3, 0.25e-3))
+    with pytest.raises(ValueError, match="fit range"):
+        equivalent_modulus_scale(d, kd, np.zeros_like(kq))
+
+
+def test_aggregate_equivalent_scale_exact_for_proportional_runs():
+    """K_dyn = 1.7 K_QS exactly (F quadratic in d: the differences and the interpolation are exact)."""
+    st = settings()
+    quad = lambda S: (lambda d: S * (0.5 * d**2 / 1e-4 + 0.2 * d))  # noqa: E731  K = S (d/1e-4 + 0.2)
+    scale = {("ref", "quasistatic", 0.0): 1.0, ("ref", "dynamic", 50.0): 1.7, ("ref", "dynamic", 500.0): 1.7,
+             ("other", "quasistatic", 0.0): 1.0, ("other", "dynamic", 50.0): 1.2, ("other", "dynamic", 500.0): 2.5}
+    runs = [synthetic_run(m, mode, a, quad(1e6 * scale[(m, mode, a)])) for m, mode, a in expected_cases(st)]
+    ds = aggregate(runs, st)
+    np.testing.assert_allclose(ds["equivalent_modulus_scale"].values, [scale[k] for k in expected_cases(st)], rtol=1e-12)
+    np.testing.assert_allclose(ds["equivalent_misfit"].values, 0.0, atol=1e-12)
+    np.testing.assert_allclose(ds.attrs["equivalent_range_m"], [0.05e-3, 0.25e-3])
+
+
+def test_interp_on_grid_nan_outside_never_extrapolates():
+    grid = np.linspace(0, 1, 11)
+    out = interp_on_grid(grid, np.array([0.2, 0.6]), np.array([1.0, 3.0]))
+    assert np.all(np.isnan(out[:2])) and np.all(np.isnan(out[7:]))
+    np.testing.assert_allclose(out[2:7], [1.0, 1.5, 2.0, 2.5, 3.0])
+    # a grid point beyond the end by rounding only is kept
+    assert np.isfinite(interp_on_grid(np.array([0.6 * (1 + 1e-12)]), np.array([0.2, 0.6]), np.array([1.0, 3.0])))[0]
 
 
 def test_aggregate_errors():

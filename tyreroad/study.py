@@ -20,6 +20,17 @@ Choices (the specification leaves them open):
 * The stiffness of the force at the rigid backing is computed the same way (``backing_stiffness``).
 * The native samples are kept too (``native_*`` variables, NaN-padded along ``sample``) so that
   checks that depend on the sampling (claim 9 of the report) can be made from the study file.
+* Non-monotone indentation paths (load-unload cycles, holds): F is not a function of d there
+  (hysteresis), so K(d) and everything on the common grid are defined on the **initial loading
+  branch**, from the first step up to the first maximum of d (:func:`loading_branch`); a hold ends
+  the branch like an unloading. The seed's runs are monotone: one branch, every sample used.
+  ``run_samples`` records the run's full length.
+* Equivalent quasi-static stiffness (the seed's practical conclusion: damping can be approximated by
+  a stiffer quasi-static model tuned per acceleration). The quasi-static force scales exactly with a
+  common modulus factor s of layer and springs, so per case ``equivalent_modulus_scale`` is the
+  least-squares s of K(d) against s K_QS(d) of the same material over ``EQUIVALENT_RANGE``
+  (0.05-0.25 mm, clipped to d_max) and ``equivalent_misfit`` the remaining relative RMS misfit
+  (:func:`equivalent_modulus_scale`).
 
 Cases are labelled ``"<material>/<mode>/<accel:g>"`` (e.g. ``"tread/dynamic/500"``,
 ``"tread/quasistatic/0"``) and carry the coordinates ``material``, ``mode`` and ``accel`` along
@@ -47,23 +58,24 @@ import numpy as np
 import xarray as xr
 
 from . import io
+from .contact import MODES
 
 logger = logging.getLogger(__name__)
 
 __all__ = [
-    "MODES",
     "StudySettings",
     "case_label",
     "expected_cases",
     "contact_stiffness",
     "saturated_stiffness",
+    "interp_on_grid",
+    "loading_branch",
+    "equivalent_modulus_scale",
     "aggregate",
     "open_study",
     "variant_members",
     "StudyAccessor",
 ]
-
-MODES = ("quasistatic", "dynamic")
 
 #: Defaults of the optional ``study`` keys (the same as in the config schema).
 DEFAULT_INDENTATION_STEP = 1.0e-6
@@ -281,12 +293,102 @@ def saturated_stiffness(indentation: np.ndarray, stiffness: np.ndarray, saturati
     return float(np.median(k[sel]))
 
 
-def _interp(grid: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """Linear interpolation; NaN outside [x0, x_end] beyond a rounding tolerance."""
+def interp_on_grid(grid: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Linear interpolation of samples (x, y) onto ``grid``; NaN outside [x_0, x_end], never extrapolated.
+
+    Parameters
+    ----------
+    grid : array_like
+        Points to interpolate at (e.g. the common indentation grid [m]).
+    x : array_like
+        Increasing sample positions [m].
+    y : array_like
+        Sample values (any unit).
+
+    Returns
+    -------
+    numpy.ndarray
+        Values on ``grid``; grid points beyond the samples by more than a rounding tolerance
+        (1e-9 of ``|x_end|``) are NaN.
+    """
+    grid = np.asarray(grid, dtype=float)
+    x = np.asarray(x, dtype=float)
     out = np.interp(grid, x, y)
     tol = 1e-9 * max(abs(x[-1]), 1e-300)
     out[(grid < x[0] - tol) | (grid > x[-1] + tol)] = np.nan
     return out
+
+
+def loading_branch(indentation: np.ndarray) -> int:
+    """Number of samples of the initial loading branch of a prescribed indentation path.
+
+    The branch runs from the first sample up to the first maximum of d: it ends at the last sample
+    before d stops increasing (a hold, d[n+1] = d[n], ends it as well as an unloading). K(d) of the
+    study is defined on this branch only: on a load-unload cycle F is not a function of d (hysteresis),
+    and the seed's claims are about first loading. A monotone path (the seed's d = a t^2/2 and the
+    quasi-static ramp) is one branch: every sample is kept.
+
+    Parameters
+    ----------
+    indentation : array_like, shape (n,)
+        Prescribed indentation d at the run's steps [m].
+
+    Returns
+    -------
+    int
+        The branch is ``indentation[:n_branch]``.
+    """
+    d = np.asarray(indentation, dtype=float)
+    stop = np.flatnonzero(np.diff(d) <= 0)
+    return int(stop[0] + 1) if stop.size else int(d.size)
+
+
+#: Indentation range [m] of the equivalent quasi-static stiffness fit (clipped to d_max).
+EQUIVALENT_RANGE = (0.05e-3, 0.25e-3)
+
+
+def equivalent_modulus_scale(
+    indentation: np.ndarray, dynamic: np.ndarray, quasistatic: np.ndarray, d_range: Sequence[float] = EQUIVALENT_RANGE
+) -> tuple[float, float]:
+    """Modulus factor s of the quasi-static model that best matches a dynamic stiffness curve.
+
+    The quasi-static force scales exactly with a common factor s of the layer modulus and the
+    spring modulus (the compressions are unchanged, every force is multiplied by s), so a
+    "stiffer quasi-static model" is K_qs,s(d) = s K_qs(d). s is the least-squares fit
+    s = sum K_dyn K_qs / sum K_qs^2 over the grid points with d in ``d_range`` (inclusive, finite
+    values only), and the misfit is RMS(K_dyn - s K_qs) / RMS(K_dyn) over the same points.
+
+    Parameters
+    ----------
+    indentation : array_like
+        Common indentation grid [m].
+    dynamic, quasistatic : array_like
+        K_dyn(d) and K_qs(d) on that grid [N/m].
+    d_range : (float, float)
+        Fit range [m].
+
+    Returns
+    -------
+    (float, float)
+        s [1] and the relative RMS misfit [1].
+
+    Raises
+    ------
+    ValueError
+        When no finite point lies in the range.
+    """
+    d = np.asarray(indentation, dtype=float)
+    kd = np.asarray(dynamic, dtype=float)
+    kq = np.asarray(quasistatic, dtype=float)
+    lo, hi = float(d_range[0]), float(d_range[1])
+    tol = 1e-9 * max(abs(hi), 1e-300)
+    sel = (d >= lo - tol) & (d <= hi + tol) & np.isfinite(kd) & np.isfinite(kq)
+    if not np.any(sel) or not np.any(kq[sel] != 0):
+        raise ValueError(f"no finite non-zero quasi-static stiffness in the fit range [{lo:g}, {hi:g}] m")
+    kd, kq = kd[sel], kq[sel]
+    s = float(np.dot(kd, kq) / np.dot(kq, kq))
+    misfit = float(np.sqrt(np.mean((kd - s * kq) ** 2)) / np.sqrt(np.mean(kd**2)))
+    return s, misfit
 
 
 def _source(ds: xr.Dataset, index: int) -> str:
@@ -340,21 +442,33 @@ def _native(ds: xr.Dataset, src: str, settings: StudySettings) -> dict[str, np.n
             raise ValueError(f"{src}: {name} must be 1-D along 'step' like indentation, got shape {v.shape}")
         if not np.all(np.isfinite(v)):
             raise ValueError(f"{src}: {name} has non-finite values")
+    # K(d) is defined on the initial loading branch (start up to the first maximum of d)
+    n_run = d.size
+    n_branch = loading_branch(d)
+    if n_branch < n_run:
+        logger.info(
+            "%s: non-monotone indentation; the study uses the initial loading branch, %d of %d steps "
+            "(up to d = %.6g m)", src, n_branch, n_run, d[n_branch - 1],
+        )
+    out = {name: v[:n_branch] for name, v in out.items()}
+    d = out["indentation"]
     if d.size < 3:
-        raise ValueError(f"{src}: a run needs at least 3 steps, got {d.size}")
-    if np.any(np.diff(d) <= 0):
-        raise ValueError(f"{src}: indentation is not strictly increasing")
+        raise ValueError(
+            f"{src}: the initial loading branch (start up to the first maximum of the indentation) "
+            f"needs at least 3 steps, got {d.size} of {n_run}"
+        )
     # a run must reach d_max to within its own last step; the remainder is NaN, not extrapolated
     if d[-1] < settings.d_max - (d[-1] - d[-2]) * (1 + 1e-9):
         raise ValueError(
-            f"{src}: run stops at d = {d[-1]:.6g} m, short of solver.d_max = {settings.d_max:.6g} m "
-            f"by more than its last step"
+            f"{src}: run's loading branch stops at d = {d[-1]:.6g} m, short of solver.d_max = "
+            f"{settings.d_max:.6g} m by more than its last step"
         )
     if d[0] > settings.indentation_step * (1 + 1e-9):
         raise ValueError(f"{src}: run starts at d = {d[0]:.6g} m, beyond the first grid step; expected first contact at d = 0")
     out["stiffness"] = contact_stiffness(d, out["force"])
     out["backing_stiffness"] = contact_stiffness(d, out["backing_force"])
     out["n_elements"] = np.array(n_elements)
+    out["run_samples"] = np.array(n_run)
     return out
 
 
@@ -371,7 +485,17 @@ _ATTRS = {
     "native_stiffness": ("N/m", "contact stiffness at the native samples (NaN-padded)"),
     "native_backing_force": ("N", "backing force at the native samples (NaN-padded)"),
     "native_contact_fraction": ("1", "fraction of elements in contact at the native samples (NaN-padded)"),
-    "native_samples": ("1", "number of native samples of the run"),
+    "native_samples": ("1", "number of native samples of the run's initial loading branch (all samples of a monotone run)"),
+    "run_samples": ("1", "number of steps of the contact run (more than native_samples for a non-monotone path)"),
+    "equivalent_modulus_scale": (
+        "1",
+        "modulus factor s of the quasi-static model (layer and springs) that best fits this case's K(d): "
+        "least squares of K(d) against s K_QS(d) of the same material over the equivalent range (1 for QS cases)",
+    ),
+    "equivalent_misfit": (
+        "1",
+        "RMS(K - s K_QS) / RMS(K) over the equivalent range: what the scaled quasi-static model leaves unexplained",
+    ),
     "n_elements": ("1", "number of contact elements of the patch"),
 }
 
@@ -427,17 +551,30 @@ def aggregate(contacts: Iterable[xr.Dataset | str | Path], settings: StudySettin
     k_sat = np.empty(n_case)
     k_sat_b = np.empty(n_case)
     n_native = np.empty(n_case, dtype=np.int64)
+    n_run = np.empty(n_case, dtype=np.int64)
     for c, key in enumerate(expected):
         run = runs[key]
         d = run["indentation"]
         for name in grid_vars:
-            grid_vars[name][c] = _interp(grid, d, run[name])
+            grid_vars[name][c] = interp_on_grid(grid, d, run[name])
         for name in native_vars:
             native_vars[name][c, : d.size] = run[name]
         n_native[c] = d.size
+        n_run[c] = int(run["run_samples"])
         k_sat[c] = saturated_stiffness(grid, grid_vars["stiffness"][c], settings.saturation_range)
         k_sat_b[c] = saturated_stiffness(grid, grid_vars["backing_stiffness"][c], settings.saturation_range)
         logger.info("case %s: %d native samples, K_sat = %.4g N/m", case_label(*key), d.size, k_sat[c])
+
+    # equivalent quasi-static stiffness: K_dyn(d) ~ s K_QS(d) of the same material
+    eq_range = (EQUIVALENT_RANGE[0], min(EQUIVALENT_RANGE[1], settings.d_max))
+    scale = np.empty(n_case)
+    misfit = np.empty(n_case)
+    for c, (material, mode, accel) in enumerate(expected):
+        k_qs = grid_vars["stiffness"][expected.index((material, "quasistatic", 0.0))]
+        scale[c], misfit[c] = equivalent_modulus_scale(grid, grid_vars["stiffness"][c], k_qs, eq_range)
+        if mode == "dynamic":
+            logger.info("case %s: equivalent quasi-static modulus factor s = %.4f, misfit %.2f %%",
+                        case_label(material, mode, accel), scale[c], 100 * misfit[c])
 
     def var(name, dims, values):
         units, long_name = _ATTRS[name]
@@ -446,6 +583,9 @@ def aggregate(contacts: Iterable[xr.Dataset | str | Path], settings: StudySettin
     data = {name: var(name, ("case", "indentation"), v) for name, v in grid_vars.items()}
     data.update({f"native_{name}": var(f"native_{name}", ("case", "sample"), v) for name, v in native_vars.items()})
     data["native_samples"] = var("native_samples", ("case",), n_native)
+    data["run_samples"] = var("run_samples", ("case",), n_run)
+    data["equivalent_modulus_scale"] = var("equivalent_modulus_scale", ("case",), scale)
+    data["equivalent_misfit"] = var("equivalent_misfit", ("case",), misfit)
     data["saturated_stiffness"] = var("saturated_stiffness", ("case",), k_sat)
     data["saturated_backing_stiffness"] = var("saturated_backing_stiffness", ("case",), k_sat_b)
     data["n_elements"] = var("n_elements", (), np.int64(n_el.pop()))
@@ -464,6 +604,11 @@ def aggregate(contacts: Iterable[xr.Dataset | str | Path], settings: StudySettin
             "saturation_range_m": np.asarray(settings.saturation_range, dtype=float),
             "d_max_m": settings.d_max,
             "indentation_step_m": settings.indentation_step,
+            "equivalent_range_m": np.asarray(eq_range, dtype=float),
+            "loading_branch": (
+                "K(d) and every variable along indentation/sample use each run's initial loading branch: "
+                "from the first step up to the first maximum of the prescribed indentation"
+            ),
             "stiffness_method": (
                 "K = dF/dd by second-order three-point differences on each run's native (non-uniform) "
                 "samples, one-sided at the ends, then linear interpolation onto the common grid; "

@@ -118,6 +118,12 @@ def plot_stiffness(study: xr.Dataset, path: str | Path, reference_material: str 
     ax.set_ylim(bottom=0)
     ax.grid(alpha=0.3)
     ax.legend(loc="lower right")
+    dyn = np.array([c["contact_fraction"].values for label, c in cases if label != "quasi-static"])
+    if len(dyn) > 1:
+        spread = float(np.nanmax(np.nanmax(dyn, axis=0) - np.nanmin(dyn, axis=0))) * 100
+        if spread < 2.0:  # the dynamic curves hide each other: say so
+            ax2.text(0.02, 0.9, f"dynamic curves coincide (within {spread:.1f} percentage points)",
+                     transform=ax2.transAxes, fontsize=8, va="top")
     ax2.set_xlabel("indentation d [mm]")
     ax2.set_ylabel("elements in contact [%]")
     ax2.set_xlim(0, d[-1])
@@ -133,14 +139,18 @@ def plot_variants(
     accel: float,
     path: str | Path,
 ) -> Path:
-    """Figures 7/8: K(d) of material variants at one acceleration.
+    """Figures 7/8: K(d) of material variants at one acceleration, and their difference to the reference.
+
+    The variants differ from the reference by a few percent at most, so in the top panel (K) the
+    curves lie on top of each other; the bottom panel shows K − K_ref [kN/m], where they separate.
 
     Parameters
     ----------
     study : xarray.Dataset
         The study dataset.
     members : sequence of (float, str)
-        (scale, material) of the variants, e.g. from :func:`tyreroad.study.variant_members`.
+        (scale, material) of the variants, e.g. from :func:`tyreroad.study.variant_members`; the
+        reference is the member with scale 1.
     kind : {"loss", "density"}
         Which property the scale multiplies (legend and title).
     accel : float
@@ -151,22 +161,37 @@ def plot_variants(
     symbol = {"loss": "η", "density": "ρ"}[kind]
     what = {"loss": "loss factor", "density": "density"}[kind]
     d = study["indentation"].values * _MM
-    fig, ax = plt.subplots(figsize=(6.4, 4.6), layout="constrained")
+    fig, (ax, ax2) = plt.subplots(
+        2, 1, sharex=True, figsize=(6.4, 6.4), layout="constrained", gridspec_kw={"height_ratios": [3, 2]}
+    )
     styles = ["-", "-.", ":"]
     others = [m for m in members if m[0] != 1.0]
     colors = dict(zip(others, _colors(len(others))))
+    ref = [m for s, m in members if s == 1.0]
+    k_ref = study.study.sel_case(material=ref[0], mode="dynamic", accel=accel)["stiffness"].values if ref else None
     for i, (scale, material) in enumerate(members):
         c = study.study.sel_case(material=material, mode="dynamic", accel=accel)
+        k = c["stiffness"].values
         # the reference (scale 1) is drawn like the quasi-static curve of fig 5-6: black dashed
         color, ls = ("k", "--") if scale == 1.0 else (colors[(scale, material)], styles[i % len(styles)])
-        ax.plot(d, c["stiffness"].values * _MN, color=color, ls=ls, label=f"{symbol} ×{scale:g} ({material})")
-    ax.set_xlabel("indentation d [mm]")
+        label = f"{symbol} ×{scale:g} ({material}), K_sat {float(c['saturated_stiffness']) * _MN:.3f} MN/m"
+        ax.plot(d, k * _MN, color=color, ls=ls, lw=1.6, label=label)
+        if k_ref is not None:
+            ax2.plot(d, (k - k_ref) * 1e-3, color=color, ls=ls, lw=1.6)
     ax.set_ylabel("contact stiffness K [MN/m]")
     ax.set_title(f"Contact stiffness, {what} variants, dynamic a = {accel:g} m/s²")
-    ax.set_xlim(0, d[-1])
     ax.set_ylim(bottom=0)
     ax.grid(alpha=0.3)
-    ax.legend(loc="lower right")
+    ax.legend(loc="lower right", fontsize=8, title="curves overlap here: see K − K_ref below", title_fontsize=7.5)
+    ax2.set_xlabel("indentation d [mm]")
+    ax2.set_ylabel("K − K_ref [kN/m]")
+    ax2.set_xlim(0, d[-1])
+    ax2.grid(alpha=0.3)
+    sat = study.attrs.get("saturation_range_m")
+    if sat is not None:
+        sat = np.atleast_1d(sat)
+        for a_ in (ax, ax2):
+            a_.axvspan(sat[0] * _MM, sat[1] * _MM, color="0.92", zorder=0)
     return _save(fig, path)
 
 

@@ -1,0 +1,185 @@
+"""The sensitivity sweep (tyreroad.sensitivity): settings, presets, one real point, conclusions.
+
+The point test runs the real stages on a 6 x 6 patch (Green's functions with 64 lags) to
+d_max = 0.1 mm, and checks the sweep against direct calls of the same stage functions.
+"""
+
+from __future__ import annotations
+
+import copy
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from tyreroad import sensitivity as S
+from tyreroad.contact import SolverSettings, solve_run
+from tyreroad.greens import greens_dataset
+from tyreroad.material import material_from_config
+from tyreroad.pipeline import resolved_material_config
+from tyreroad.springs import SpringModel, element_springs, resolve_spring_modulus
+from tyreroad.study import contact_stiffness, interp_on_grid, saturated_stiffness
+from tyreroad.surface import prepare_surface
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture(scope="module")
+def cfg():
+    base = yaml.safe_load((ROOT / "config/config.yaml").read_text())
+    overlay = yaml.safe_load((ROOT / "config/test.yaml").read_text())
+    base["surfaces"]["iso10844"].update(overlay["surfaces"]["iso10844"])
+    base["solver"].update(overlay["solver"])
+    base["study"].update(overlay["study"])
+    base["greens"].update(overlay["greens"])
+    return base
+
+
+# ----------------------------------------------------------------------------------------------
+# settings and presets
+# ----------------------------------------------------------------------------------------------
+def test_settings_defaults_and_errors():
+    st = S.SensitivitySettings.from_config({"points": {"a": None, "b": {"material": {"alpha": 0.1}}}})
+    assert st.acceleration == 500.0 and st.target_stiffness == 2.75e6 and st.loss_scales == (0.5, 1.5)
+    assert st.points["a"] == {"description": "a", "material": {}, "surface": {}, "calibrate": True}
+    with pytest.raises(ValueError, match="section 'sensitivity' is missing"):
+        S.SensitivitySettings.from_config(None)
+    with pytest.raises(ValueError, match="sensitivity.points must be a non-empty"):
+        S.SensitivitySettings.from_config({"points": {}})
+    with pytest.raises(ValueError, match=r"sensitivity.points.a: unknown key\(s\) \['colour'\]"):
+        S.SensitivitySettings.from_config({"points": {"a": {"colour": 1}}})
+    with pytest.raises(ValueError, match="sensitivity.loss_scales"):
+        S.SensitivitySettings.from_config({"points": {"a": {}}, "loss_scales": [1.5, 0.5]})
+    with pytest.raises(ValueError, match="unknown key"):
+        S.SensitivitySettings.from_config({"points": {"a": {}}, "speed": 1})
+    with pytest.raises(ValueError, match="point name"):
+        S.SensitivitySettings.from_config({"points": {"a_b": {}}})
+
+
+def test_point_presets_and_modulus_scaling(cfg):
+    ref = resolved_material_config("tread", cfg["materials"])
+    p = S.point_material_preset(ref, {"alpha": 0.12})
+    assert p["alpha"] == 0.12 and p["E0"] == ref["E0"] and ref["alpha"] == 0.24
+    gm = S.point_material_preset(ref, {"model": "generalized_maxwell", "E_inf": 2.5e7, "moduli": [1e7],
+                                       "relaxation_times": [1e-4]})
+    assert "E0" not in gm and "alpha" not in gm and gm["density"] == ref["density"] and gm["thickness"] == ref["thickness"]
+    w = 2 * np.pi * np.geomspace(1, 2e4, 9)
+    for preset in (ref, gm, dict(ref, quasi_static_modulus=3e7)):
+        m1 = material_from_config("m", {"m": preset})
+        m2 = material_from_config("m", {"m": S.scale_moduli(preset, 1.3)})
+        np.testing.assert_allclose(m2.modulus(w), 1.3 * m1.modulus(w), rtol=1e-12)
+        assert m2.quasi_static_modulus == pytest.approx(1.3 * m1.quasi_static_modulus, rel=1e-12)
+        assert m2.density == m1.density
+    spec = S.point_surface_spec(cfg["surfaces"]["iso10844"], {"roller_level": None})
+    assert spec["roller_level"] is None and cfg["surfaces"]["iso10844"]["roller_level"] == 0.0
+    with pytest.raises(ValueError, match="sensitivity.points.bad.material"):
+        S.check_points(S.SensitivitySettings.from_config({"points": {"bad": {"material": {"alpha": 1.5}}}}), ref)
+
+
+def test_planned_points_and_files(cfg):
+    assert S.planned_points({k: v for k, v in cfg.items() if k != "sensitivity"}) == {}
+    with pytest.raises(ValueError, match="no 'sensitivity' section"):
+        S.point_files({})
+    pts = S.planned_points(cfg)
+    assert "reference" in pts and S.point_files(pts)[0] == "results/sensitivity/reference.nc"
+
+
+# ----------------------------------------------------------------------------------------------
+# one real point
+# ----------------------------------------------------------------------------------------------
+def _direct_ksat(cfg, surface, preset, mode, accel, grid, sat):
+    """K_sat by direct calls of the stage functions (what the study's rules do)."""
+    mat = material_from_config("m", {"m": preset})
+    model = SpringModel.from_config(cfg["springs"])
+    springs = element_springs(surface, model, modulus=resolve_spring_modulus(model, mat.quasi_static_modulus),
+                              poisson=mat.poisson, thickness=mat.thickness)
+    g = cfg["greens"]
+    greens = greens_dataset(mat, n_elements=(6, 6), element_size=1e-3, sample_rate=g["sample_rate"],
+                            n_lags=g["n_lags"], n_fft=g["n_fft"])
+    res = solve_run(surface, springs, greens, mat, mode, accel, SolverSettings.from_config(cfg["solver"]))
+    k = interp_on_grid(grid, res.indentation, contact_stiffness(res.indentation, res.force))
+    return saturated_stiffness(grid, k, sat)
+
+
+@pytest.fixture(scope="module")
+def points(cfg):
+    ref = resolved_material_config("tread", cfg["materials"])
+    sens = {"acceleration": 500.0, "target_stiffness": 1.2e5, "calibration_tolerance": 0.005}
+    out = {}
+    for name, point in {"plain": {"calibrate": False}, "calibrated": {"material": {"alpha": 0.4}}}.items():
+        st = S.point_settings(sens, name, point)
+        out[name] = S.run_point(name, st.points[name], ref, cfg["surfaces"]["iso10844"], cfg["springs"],
+                                cfg["greens"], cfg["solver"], cfg["study"], st)
+    return out
+
+
+def test_point_matches_the_stage_functions(cfg, points):
+    ds = points["plain"].isel(point=0)
+    ref = resolved_material_config("tread", cfg["materials"])
+    grid = ds["indentation"].values
+    sat = tuple(cfg["study"]["saturation_range"])
+    surface = prepare_surface("iso10844", cfg["surfaces"]["iso10844"])
+    assert float(ds["modulus_factor"]) == 1.0 and int(ds["calibration_runs"]) == 1
+    ks = ds["saturated_stiffness"]
+    assert float(ks.sel(variant="reference")) == pytest.approx(_direct_ksat(cfg, surface, ref, "dynamic", 500.0, grid, sat), rel=1e-12)
+    high = dict(ref, loss_scale=1.5)
+    assert float(ks.sel(variant="eta-high")) == pytest.approx(_direct_ksat(cfg, surface, high, "dynamic", 500.0, grid, sat), rel=1e-12)
+    assert float(ks.sel(variant="quasistatic")) == pytest.approx(_direct_ksat(cfg, surface, ref, "quasistatic", 0.0, grid, sat), rel=1e-12)
+    delta = ds["loss_delta"].values
+    k_ref = float(ks.sel(variant="reference"))
+    np.testing.assert_allclose(delta, [float(ks.sel(variant=v)) / k_ref - 1 for v in ("eta-low", "eta-high")], rtol=1e-12)
+    assert str(ds["claim6_verdict"].values) in ("holds", "size holds, direction opposite", "fails")
+    assert float(ds["density_delta"]) == pytest.approx(float(ks.sel(variant="rho-high")) / k_ref - 1, rel=1e-12)
+    # the dynamic run is stiffer than the quasi-static one: the equivalent factor exceeds 1
+    assert float(ds["equivalent_modulus_scale"]) > 1.2
+    assert int(ds["contact_runs"]) == 5 and float(ds["wall_time"]) > 0
+
+
+def test_calibration_reaches_the_target(points):
+    ds = points["calibrated"].isel(point=0)
+    k = float(ds["saturated_stiffness"].sel(variant="reference"))
+    assert k == pytest.approx(1.2e5, rel=0.005)
+    assert 1 < int(ds["calibration_runs"]) <= 4
+    factor = float(ds["modulus_factor"])
+    preset = yaml.safe_load(str(ds["material_preset"].values))
+    assert preset["alpha"] == 0.4 and preset["E0"] == pytest.approx(2.5e7 * factor, rel=1e-12)
+
+
+# ----------------------------------------------------------------------------------------------
+# combination, conclusions, markdown, figure
+# ----------------------------------------------------------------------------------------------
+def _fake(points_ds, name, delta, ratio, change, verdict6, verdict7="fails", verdict5="fails"):
+    ds = copy.deepcopy(points_ds).assign_coords(point=[name])
+    ds["loss_delta"][:] = [delta]
+    ds["ripple_ratio"][:] = ratio
+    ds["saturation_change"][:] = change
+    ds["claim6_verdict"][:] = verdict6
+    ds["claim7_verdict"][:] = verdict7
+    ds["claim5_verdict"][:] = verdict5
+    return ds
+
+
+def test_conclusions_and_markdown(points, tmp_path):
+    base = points["plain"]
+    opposite = _fake(base, "opp", [0.033, -0.022], 1.03, 0.157, "size holds, direction opposite")
+    seedlike = _fake(base, "seed", [-0.02, 0.03], 1.5, 0.08, "holds", "holds", "holds")
+    ds = S.combine_points([opposite, seedlike])
+    assert list(ds["point"].values) == ["opp", "seed"]
+    c = S.conclusions(ds)
+    assert c == {"claim5": ["seed"], "claim6_direction": ["seed"], "claim6": ["seed"], "claim7_ripples": ["seed"],
+                 "claim7": ["seed"]}
+    text = S.sensitivity_markdown(ds)
+    assert "comes out for `seed`" in text and "| `opp` |" in text and "+3.30 % | -2.20 % | size holds, direction opposite" in text
+    only_opposite = S.combine_points([opposite])
+    text = S.sensitivity_markdown(only_opposite)
+    assert "None of the 1 points reproduces the seed's direction" in text
+    assert "None of the points gives density ripples" in text
+    with pytest.raises(ValueError, match="duplicate"):
+        S.combine_points([opposite, opposite])
+    from tyreroad.plots.sensitivity import plot_sensitivity
+    import matplotlib.image as mpimg
+
+    p = plot_sensitivity(ds, tmp_path / "s.png")
+    img = mpimg.imread(p)
+    assert img.shape[0] > 800 and img[..., :3].std() > 0.05

@@ -1,0 +1,62 @@
+# Sensitivity sweep: what decides claims 5-7 (tyreroad.sensitivity). A named target, not part of
+# the default one:  snakemake -j2 sensitivity  ->  results/sensitivity.nc, results/sensitivity.md,
+# results/figures/sensitivity.png.  One job per sweep point (config: sensitivity.points).
+from tyreroad.sensitivity import planned_points as _planned_points
+from tyreroad.sensitivity import point_files as _point_files
+from tyreroad.sensitivity import point_surface_spec as _point_surface_spec
+
+# planning-time checks: the section, every point's material and surface preset
+SENSITIVITY_POINTS = _planned_points(config)
+validate(
+    {
+        **config,
+        "surfaces": {
+            f"sensitivity-{name}": _point_surface_spec(config["surfaces"][STUDY_SURFACE], point["surface"])
+            for name, point in SENSITIVITY_POINTS.items()
+        }
+        or config["surfaces"],
+    },
+    "../schemas/config.schema.yaml",
+)
+# the section without its points: changing one point re-runs that point only
+SENSITIVITY_GLOBALS = {k: v for k, v in config.get("sensitivity", {}).items() if k != "points"}
+
+
+rule sensitivity_point:
+    output:
+        nc="results/sensitivity/{point}.nc",
+    log:
+        "results/logs/sensitivity/{point}.log",
+    benchmark:
+        "results/benchmarks/sensitivity/{point}.tsv"
+    wildcard_constraints:
+        point=r"[A-Za-z0-9.\-]+",
+    params:
+        point=lambda w: SENSITIVITY_POINTS[w.point],
+        sensitivity=SENSITIVITY_GLOBALS,
+        reference_material=resolved_material(STUDY["reference_material"]),
+        surface=config["surfaces"][STUDY_SURFACE],
+        springs=config["springs"],
+        greens=config["greens"],
+        solver=config["solver"],
+        study=STUDY,
+    threads: 1
+    script:
+        "../scripts/sensitivity_point.py"
+
+
+rule sensitivity:
+    input:
+        points=lambda w: _point_files(SENSITIVITY_POINTS),
+    output:
+        nc="results/sensitivity.nc",
+        png="results/figures/sensitivity.png",
+        md="results/sensitivity.md",
+    log:
+        "results/logs/sensitivity.log",
+    params:
+        sensitivity=SENSITIVITY_GLOBALS,
+    localrule: True
+    threads: 1
+    script:
+        "../scripts/sensitivity.py"
