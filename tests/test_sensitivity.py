@@ -154,9 +154,9 @@ def _fake(points_ds, name, delta, ratio, change, verdict6, verdict7="fails", ver
     ds["loss_delta"][:] = [delta]
     ds["ripple_ratio"][:] = ratio
     ds["saturation_change"][:] = change
-    ds["claim6_verdict"][:] = verdict6
-    ds["claim7_verdict"][:] = verdict7
-    ds["claim5_verdict"][:] = verdict5
+    # whole-variable assignment: the real point's verdict may be a shorter string than the fake one
+    for key, verdict in (("claim6_verdict", verdict6), ("claim7_verdict", verdict7), ("claim5_verdict", verdict5)):
+        ds[key] = (ds[key].dims, np.full(ds[key].shape, verdict, dtype=object), ds[key].attrs)
     return ds
 
 
