@@ -10,6 +10,7 @@ include: "workflow/rules/springs.smk"
 include: "workflow/rules/greens.smk"
 include: "workflow/rules/contact.smk"
 include: "workflow/rules/study.smk"
+include: "workflow/rules/loading.smk"
 include: "workflow/rules/sensitivity.smk"
 
 

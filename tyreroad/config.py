@@ -82,6 +82,24 @@ def check_references(config: Mapping[str, Any]) -> None:
             raise ConfigError(f"materials.{name}.base: {base!r} is not a preset in materials")
         if base is None and "model" not in preset:
             raise ConfigError(f"materials.{name}: needs either 'model' or 'base'")
+    loadings = config.get("loadings", {})
+    for preset, names in study.get("loadings", {}).items():
+        if preset not in loadings:
+            raise ConfigError(f"study.loadings.{preset}: not a preset in loadings (have: {sorted(loadings)})")
+        for i, name in enumerate(names):
+            if name not in materials:
+                raise ConfigError(
+                    f"study.loadings.{preset}[{i}]: {name!r} is not a preset in materials (have: {sorted(materials)})"
+                )
+    from .loading import LoadingPreset
+
+    for name, spec in loadings.items():
+        if "_" in name:
+            raise ConfigError(f"loadings.{name}: preset names may not contain '_' (it separates wildcards)")
+        try:
+            LoadingPreset(name, spec)  # every key, and a table file's contents, checked before any job
+        except ValueError as err:
+            raise ConfigError(str(err)) from None
     lo, hi = study.get("saturation_range", [1.8e-4, 2.5e-4])
     d_max = config.get("solver", {}).get("d_max", 2.5e-4)
     if not lo < hi <= d_max * (1 + 1e-12):

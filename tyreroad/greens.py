@@ -92,6 +92,8 @@ __all__ = [
 ]
 
 _MIN_N_FFT = 4096
+#: Creep-fit error below which a material counts as causal, so that its precursor is band-limit ringing.
+CAUSAL_FIT_ERROR = 1e-2
 # Relative size below which an angular harmonic a_n(k) of the square load is dropped.
 _HARMONIC_TOL = 1e-13
 # k rules for offsets r >= _FAR c may stop at 20/c instead of 40/c (see wavenumber_quadrature).
@@ -798,9 +800,14 @@ def greens_dataset(
     wrapped_half = wrapped_creep(creep, n_fft, n_fft // 2, fs, first=n_fft // 2).sum()
     j = creep.creep(np.array([n_fft // 2 - 0.5, n_fft - 0.5]) / fs) / creep.relaxed_compliance
     precursor_sum = second_half - g_zero * (wrapped_half + (j[1] - j[0]))
+    # For a causal material the precursor is the band limit's ringing and its sum belongs to t = 0;
+    # a material that is not causal itself (the seed's loss-scaled variants) has a negative-time
+    # response of its own, which stays discarded as the seed discarded it.
+    fold_precursor = creep.fit_error <= CAUSAL_FIT_ERROR
     kept_before = float(kernel[:, 0].sum() / g_zero[0])
     kernel -= wrapped[:, None] * g_zero[None, :]
-    kernel[0] += precursor_sum
+    if fold_precursor:
+        kernel[0] += precursor_sum
     tail_compliance = g_zero - kernel.sum(axis=0)
 
     dx, dy, index = offset_table_index((nx, ny))
@@ -809,8 +816,9 @@ def greens_dataset(
     kept = float(kernel[:, 0].sum() / frf_excitation[0].real)
     logger.info(
         "greens %s: g(0) = %.4g m/N, static %.4g m/N, kept fraction %.4f (%.4f before removing the wrapped "
-        "creep %.4f and adding the precursor sum %.4f to lag 0), precursor energy %.2e; %.1f s",
+        "creep %.4f and %s the precursor sum %.4f), precursor energy %.2e; %.1f s",
         material.name, frf_excitation[0].real, g_static[0], kept, kept_before, wrapped.sum(),
+        "adding to lag 0" if fold_precursor else "discarding (material not causal)",
         precursor_sum[0] / g_zero[0], precursor, time.perf_counter() - t0,
     )
     g_table = np.ascontiguousarray(np.moveaxis(kernel[:, index], 0, -1))
@@ -835,8 +843,8 @@ def greens_dataset(
             "precursor_sum_fraction": (
                 (),
                 float(precursor_sum[0] / g_zero[0]),
-                _attrs("1", "sum of the discarded non-causal precursor over g(omega=0) at the excitation element, "
-                       "added to lag 0"),
+                _attrs("1", "sum of the non-causal precursor over g(omega=0) at the excitation element (added to "
+                       "lag 0 when precursor_folded = 1, discarded otherwise)"),
             ),
             "wrapped_creep_fraction": (
                 (),
@@ -877,6 +885,7 @@ def greens_dataset(
             "density": float(material.density),
             "thickness": float(material.thickness),
             "glassy_compliance": creep.glassy_compliance,
+            "precursor_folded": int(fold_precursor),
             "creep_fit_error": creep.fit_error,
         },
     )

@@ -256,13 +256,17 @@ def run_report(
     study_cfg: Mapping[str, Any],
     variants: Mapping[str, Any],
     out_md: str | Path,
+    loading_nc: str | Path | None = None,
 ) -> None:
-    """``results/report.md``: the seed's claims checked against the measured numbers."""
+    """``results/report.md``: the seed's claims checked against the measured numbers, and the
+    hysteresis of the load-unload cycles when ``loading_nc`` (results/loading.nc) is given."""
+    from .hysteresis import hysteresis_section
     from .report import build_report, write_report
     from .study import StudySettings, open_study
 
     study = open_study(study_nc)
     settings = StudySettings.from_config(study_cfg, d_max=float(study.attrs["d_max_m"]))
+    extra = [] if loading_nc is None else [hysteresis_section(io.read_dataset(loading_nc))]
     text = build_report(
         study,
         io.read_dataset(surface_nc),
@@ -270,5 +274,68 @@ def run_report(
         settings,
         variants,
         config={"study": dict(study_cfg), "variants": dict(variants)},
+        extra_sections=extra,
     )
     write_report(text, out_md)
+
+
+def run_loading(
+    surface_nc: str | Path,
+    springs_nc: str | Path,
+    greens_nc: str | Path,
+    surface_name: str,
+    material_name: str,
+    material_cfg: Mapping[str, Any],
+    mode: str,
+    loading_name: str,
+    loading_cfg: Mapping[str, Any],
+    solver_cfg: Mapping[str, Any],
+    out_nc: str | Path,
+    threads: int = 1,
+    base_dir: str | Path = ".",
+) -> None:
+    """Stage ``loading_run``: one run of a loading preset (cycle, harmonic, table; SPEC 10).
+
+    Raises
+    ------
+    tyreroad.contact.ContactConvergenceError
+        If a step does not converge or a cycle's path ends before every element has separated;
+        no file is written then.
+    """
+    from .contact import SolverSettings, loading_dataset, solve_loading
+    from .loading import LoadingPreset
+
+    settings = SolverSettings.from_config(solver_cfg)
+    material = _material(material_name, material_cfg)
+    preset = LoadingPreset(loading_name, loading_cfg, base_dir=base_dir)
+    result = solve_loading(
+        surface=io.read_dataset(surface_nc),
+        springs=io.read_dataset(springs_nc),
+        greens=io.read_dataset(greens_nc),
+        material=material,
+        mode=mode,
+        preset=preset,
+        settings=settings,
+        threads=threads,
+    )
+    ds = loading_dataset(result, mode, preset, surface_name, material_name)
+    provenance = {"solver": dict(solver_cfg), "material": {material_name: dict(material.config)},
+                  "loading": {loading_name: dict(loading_cfg)}}
+    io.write_dataset(ds, out_nc, provenance, stage="loading", surface=surface_name, material=material_name,
+                     mode=mode, loading=loading_name)
+
+
+def run_loading_study(loading_ncs: Sequence[str | Path], out_nc: str | Path) -> None:
+    """``results/loading.nc``: dissipated energy, loading work, peak force and the loop of every loading run."""
+    from .hysteresis import aggregate_loading
+
+    ds = aggregate_loading([io.read_dataset(p) for p in loading_ncs])
+    io.write_dataset(ds, out_nc, {"loading_runs": [str(p) for p in loading_ncs]}, stage="loading_study")
+
+
+def run_hysteresis_figure(loading_nc: str | Path, out_png: str | Path) -> None:
+    """Figure 10: the hysteresis loops F(d) of the quasi-static and dynamic cycles, every material."""
+    from .plots.hysteresis import plot_hysteresis
+
+    with io.atomic_path(out_png) as tmp:
+        plot_hysteresis(io.read_dataset(loading_nc), tmp)

@@ -905,6 +905,7 @@ def build_report(
     settings: StudySettings,
     variants: Mapping[str, Any],
     config: Mapping[str, Any] | None = None,
+    extra_sections: Sequence[Sequence[str]] = (),
 ) -> str:
     """The markdown text of ``results/report.md``.
 
@@ -924,6 +925,9 @@ def build_report(
     config : mapping, optional
         The config that made the report (its hash is printed); default: the study settings and
         the variants.
+    extra_sections : sequence of list of str
+        Further markdown sections (e.g. :func:`tyreroad.hysteresis.hysteresis_section`), placed
+        before the config.
 
     Returns
     -------
@@ -993,6 +997,8 @@ def build_report(
                     + ("the runs never reach beyond the kept memory" if longest <= min(lags) else
                        "longer runs need the kernel's long-memory tail"))
     lines += _material_section(greens_by, materials, variants, settings.reference_material, run_note)
+    for section in extra_sections:
+        lines += list(section)
     lines += ["## Config", "", "```yaml", io.config_yaml(config).rstrip(), "```", ""]
     return "\n".join(lines)
 

@@ -16,6 +16,7 @@ wildcard_constraints:
     material=r"[A-Za-z0-9.\-]+",
     mode=r"dynamic|quasistatic",
     accel=r"[0-9][0-9.e+\-]*",
+    loading=r"[A-Za-z0-9.\-]+",
 
 
 # Cheap aggregation and plotting jobs run on the submitting host, never as cluster jobs.
@@ -26,6 +27,8 @@ localrules:
     study,
     study_figures,
     report,
+    loading_study,
+    hysteresis_figure,
 
 
 STUDY = config["study"]
@@ -49,6 +52,23 @@ def contact_runs(material):
 
 def all_contact_runs():
     return [run for material in STUDY["materials"] for run in contact_runs(material)]
+
+
+def all_loading_runs():
+    """Loading-preset runs of the study: every preset named in study.loadings, for its materials, both modes."""
+    return [
+        f"results/loading/{STUDY_SURFACE}/{material}/{mode}_{loading}.nc"
+        for loading, materials in STUDY.get("loadings", {}).items()
+        for material in materials
+        for mode in ("quasistatic", "dynamic")
+    ]
+
+
+def loading_outputs():
+    """The loading study and its figure, when the study runs any loading presets."""
+    if not all_loading_runs():
+        return []
+    return ["results/loading.nc", "results/figures/fig10_hysteresis.png"]
 
 
 def study_greens():
@@ -76,6 +96,7 @@ def all_targets():
         "results/study.nc",
         "results/report.md",
         *[f"results/figures/{name}.png" for name in STUDY_FIGURES],
+        *loading_outputs(),
     ]
 
 

@@ -33,6 +33,7 @@ rule report:
         study="results/study.nc",
         surface=f"results/surface/{STUDY_SURFACE}.nc",
         greens=study_greens(),
+        loading=loading_outputs()[:1],
     output:
         md="results/report.md",
     log:

@@ -9,4 +9,5 @@ pipeline.run_report(
     study_cfg=snakemake.params.study,
     variants=snakemake.params.variants,
     out_md=snakemake.output.md,
+    loading_nc=snakemake.input.loading[0] if snakemake.input.loading else None,
 )
