@@ -315,3 +315,15 @@ def test_roller_presses_stone_tops_down_to_its_level():
     assert free.max() > 4e-5  # about 2.5 standard deviations for ~100 stones
     # rolling concentrates the stone tops at the plane: many samples within 5 um of the top
     assert np.mean(rolled > rolled.max() - 5e-6) > 5 * np.mean(free > free.max() - 5e-6)
+
+
+def test_element_samples_flat_is_row_major_inside_the_element():
+    """The one element-slicing helper: flat=True gives the layout the springs stage uses."""
+    n = 3
+    h = np.arange(6 * 9, dtype=float).reshape(6, 9)
+    flat = S.element_samples(h, n, flat=True)
+    assert flat.shape == (2, 3, 9)
+    # element (1, 2) holds rows 3..5, columns 6..8, in C order
+    np.testing.assert_array_equal(flat[1, 2], h[3:6, 6:9].ravel())
+    ref = h.reshape(2, n, 3, n).transpose(0, 2, 1, 3).reshape(2, 3, n * n)  # springs' former private copy
+    np.testing.assert_array_equal(flat, ref)

@@ -49,9 +49,23 @@ STUDY_SURFACE = STUDY["surface"]
 SOURCE = {stage: source_hash(stage) for stage in STAGE_MODULES}
 
 
-def checked(output, wildcards):
-    """Check the presets named by a job's wildcards (e.g. a requested target); see tyreroad.config.check_job."""
-    check_job(config, str(output[0]), dict(wildcards))
+# The job output named in messages, by the set of wildcards of the rule.
+_TARGET_OF = {
+    ("surface",): f"{R}/surface/{{surface}}.nc",
+    ("material",): f"{R}/greens/{{material}}.nc",
+    ("material", "surface"): f"{R}/springs/{{surface}}/{{material}}.nc",
+    ("accel", "material", "mode", "surface"): f"{R}/contact/{{surface}}/{{material}}/{{mode}}_{{accel}}.nc",
+}
+
+
+def checked(wildcards):
+    """Check the presets named by a job's wildcards (e.g. a requested target); see tyreroad.config.check_job.
+
+    Called from the params functions. They take the wildcards only: Snakemake does not record
+    (nor compare) params of functions that take input or output.
+    """
+    w = dict(wildcards)
+    check_job(config, _TARGET_OF[tuple(sorted(w))].format(**w), w)
 
 
 def fmt_accel(accel):
@@ -87,8 +101,8 @@ def study_element_size():
     return config["surfaces"][STUDY_SURFACE]["element_size"]
 
 
-def surface_spec(wildcards, output):
-    checked(output, wildcards)
+def surface_spec(wildcards):
+    checked(wildcards)
     return config["surfaces"][wildcards.surface]
 
 
@@ -121,15 +135,15 @@ from tyreroad.pipeline import resolved_material_config as _resolved_material_con
 from tyreroad.pipeline import spring_material_inputs as _spring_material_inputs
 
 
-def resolved_material(wildcards, output):
+def resolved_material(wildcards):
     """The material preset with its `base:` resolved: a change in the base re-runs every variant."""
-    checked(output, wildcards)
+    checked(wildcards)
     return _resolved_material_config(wildcards.material, config["materials"])
 
 
-def spring_material_inputs(wildcards, output):
+def spring_material_inputs(wildcards):
     """Only what the springs depend on, so that a density change does not re-run them."""
-    checked(output, wildcards)
+    checked(wildcards)
     return _spring_material_inputs(wildcards.material, config["materials"])
 
 
