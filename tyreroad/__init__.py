@@ -3,7 +3,8 @@
 Reproduces and extends Winroth, Andersson & Kropp, "Importance of tread inertia and damping on the
 tyre/road contact stiffness", J. Sound Vib. 333 (2014), doi:10.1016/j.jsv.2014.06.014.
 
-Modules, one per concept: ``surface`` (road patches), ``scans`` (measured scans), ``springs`` (element
+Modules, one per concept: ``surface`` (road patches), ``texture`` (ISO 13473 texture statistics),
+``scans`` (measured scans), ``config`` (planning-time config checks), ``springs`` (element
 contact springs), ``material`` (visco-elastic tread), ``layer`` (layer compliance), ``greens``
 (element Green's functions), ``contact`` (time-stepping contact solver), ``study`` (aggregation),
 ``report`` (claims table), ``plots`` (figures), ``io`` (netCDF with provenance), ``pipeline``
