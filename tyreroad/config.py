@@ -185,11 +185,16 @@ def validate_schema(config: Mapping[str, Any], schema_path: str | Path) -> None:
     err = jsonschema.exceptions.best_match(errors)
     path = list(err.absolute_path)
     if err.validator == "additionalProperties":
+        import difflib
+
         known = sorted(_schema_at(schema, path).get("properties", {}))
         extra = sorted(set(err.instance) - set(known))
+        close = difflib.get_close_matches(str(extra[0]), known, n=1) if extra else []
+        hint = f" did you mean {close[0]!r}?" if close else ""
+        listed = f"expected one of: {', '.join(known)}" if len(known) <= 12 else f"{len(known)} keys are known"
         raise ConfigError(
-            f"{_key_path(path + extra[:1])}: unknown key; expected one of: {', '.join(known)} "
-            f"(see workflow/schemas/config.schema.yaml)"
+            f"{_key_path(path + extra[:1])}: unknown key;{hint} {listed} "
+            f"(each described in workflow/schemas/config.schema.yaml)"
         )
     if "propertyNames" in err.relative_schema_path:
         raise ConfigError(
