@@ -10,6 +10,7 @@ import pytest
 import yaml
 from snakemake.utils import validate
 
+from tyreroad import config as C
 from tyreroad.config import ConfigError, check_references, load_config, merge
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -113,3 +114,82 @@ def test_schema_defaults_are_accepted_by_the_package(config):
     SpringModel.from_config(cfg["springs"])
     GreensSettings.from_config(cfg["greens"])
     SolverSettings.from_config(cfg["solver"])
+
+
+def test_duplicate_key_is_an_error_naming_key_file_and_line(tmp_path):
+    f = tmp_path / "dup.yaml"
+    f.write_text("solver:\n  d_max: 1.0e-4\n  tolerance: 1.0e-12\n  d_max: 2.0e-4\n")
+    with pytest.raises(ConfigError, match=r"dup\.yaml, line 4: duplicate key 'd_max' \(first given on line 2\)"):
+        load_config(f)
+
+
+def test_schema_error_is_one_paragraph_with_the_key_path(config):
+    cfg = copy.deepcopy(config)
+    cfg["solver"]["tolerence"] = 1e-9
+    with pytest.raises(ConfigError) as err:
+        C.validate_schema(cfg, SCHEMA)
+    msg = str(err.value)
+    assert msg.startswith("solver.tolerence: unknown key; did you mean 'tolerance'? expected one of: d_max, max_iterations")
+    assert "\n" not in msg and len(msg) < 300
+    cfg = copy.deepcopy(config)
+    cfg["surfaces"]["iso10844"]["element_size"] = -1e-3
+    with pytest.raises(ConfigError, match=r"^surfaces\.iso10844\.element_size = -0\.001: .*Lateral size c of one contact element \[m\]"):
+        C.validate_schema(cfg, SCHEMA)
+
+
+def test_default_configs_pass_every_planning_check(config):
+    for names in (["config.yaml"], ["config.yaml", "test.yaml"], ["config.yaml", "footprint.yaml"]):
+        cfg = load_config(*(ROOT / "config" / n for n in names))
+        C.validate_schema(cfg, SCHEMA)
+        validate(cfg, SCHEMA)
+        C.check_config(cfg, base_dir=ROOT)
+
+
+def test_overlays_write_to_their_own_results_dirs():
+    dirs = {n: load_config(ROOT / "config" / "config.yaml", *([ROOT / "config" / n] if n != "config.yaml" else []))["results_dir"]
+            for n in ("config.yaml", "test.yaml", "footprint.yaml")}
+    assert dirs == {"config.yaml": "results", "test.yaml": "results-test", "footprint.yaml": "results-footprint"}
+
+
+@pytest.mark.parametrize("stage", sorted(C.STAGE_MODULES))
+def test_stage_map_covers_what_the_stage_function_imports(stage):
+    """Every module a pipeline.run_<stage> function imports is an entry of STAGE_MODULES[stage]."""
+    import ast
+
+    tree = ast.parse((ROOT / "tyreroad" / "pipeline.py").read_text())
+    names = {"prepare_surface": "run_prepare_surface", "element_springs": "run_element_springs",
+             "springs_figure": "run_springs_figure", "greens": "run_greens", "greens_figures": "run_greens_figures",
+             "contact": "run_contact", "study": "run_study", "study_figures": "run_study_figures",
+             "report": "run_report"}
+    fn = next(n for n in tree.body if isinstance(n, ast.FunctionDef) and n.name == names[stage])
+    helpers = {n.name: n for n in tree.body if isinstance(n, ast.FunctionDef)}
+    imported, todo, seen = set(), [fn], set()
+    while todo:  # the function and the module-level helpers it calls
+        node = todo.pop()
+        if node.name in seen:
+            continue
+        seen.add(node.name)
+        for sub in ast.walk(node):
+            if isinstance(sub, ast.ImportFrom) and sub.level == 1 and sub.module:
+                imported.add(sub.module)
+            elif isinstance(sub, ast.Call) and isinstance(sub.func, ast.Name) and sub.func.id in helpers:
+                todo.append(helpers[sub.func.id])
+    assert imported and imported <= set(C.stage_modules(stage)), imported - set(C.stage_modules(stage))
+
+
+def test_stage_modules_follow_imports_and_hash_the_source(tmp_path):
+    import shutil
+
+    assert set(C.stage_modules("prepare_surface")) >= {"surface", "texture", "scans", "io", "pipeline"}
+    assert "greens" not in C.stage_modules("prepare_surface")
+    assert {"greens", "layer", "material", "reference.love"} <= set(C.stage_modules("greens"))
+    assert "greens" not in C.stage_modules("contact")  # contact reads the greens file, not the code
+    pkg = tmp_path / "tyreroad"
+    shutil.copytree(ROOT / "tyreroad", pkg, ignore=shutil.ignore_patterns("__pycache__"))
+    before = {s: C.source_hash(s, pkg) for s in C.STAGE_MODULES}
+    assert before == {s: C.source_hash(s) for s in C.STAGE_MODULES}  # the location does not matter
+    (pkg / "greens.py").write_text((pkg / "greens.py").read_text() + "\n# a change\n")
+    after = {s: C.source_hash(s, pkg) for s in C.STAGE_MODULES}
+    assert {s for s in before if before[s] != after[s]} == {"greens"}
+    (pkg / "io.py").write_text((pkg / "io.py").read_text() + "\n# a change\n")
+    assert all(C.source_hash(s, pkg) != after[s] for s in C.STAGE_MODULES)  # every stage writes through io

@@ -216,7 +216,7 @@ def test_xyz_missing_points_are_missing_samples(tmp_path):
 def test_wrong_height_units(field, tmp_path):
     f = tmp_path / "um.npy"
     np.save(f, field * 1e6)  # written in um, declared as m
-    with pytest.raises(ValueError, match=r"um\.npy: heights .*wrong units\?"):
+    with pytest.raises(ValueError, match=r"um\.npy: heights span 1\.\d+e\+03 m .*look like um"):
         S.prepare_surface("scan", _preset(f, step=STEP))
 
 
@@ -252,3 +252,201 @@ def test_instrument_format_needs_extra(tmp_path, monkeypatch):
     monkeypatch.setitem(sys.modules, "SurfaceTopography", None)  # import fails as if not installed
     with pytest.raises(ImportError, match=r'pip install "tyreroad\[scans\]"'):
         S.prepare_surface("scan", _preset(f))
+
+
+# --- issue 14: empty files, height range, flat scans ----------------------------------------------
+def test_empty_file_is_an_error_naming_it(tmp_path):
+    f = tmp_path / "empty.npy"
+    f.write_bytes(b"")
+    with pytest.raises(ValueError, match=r"empty\.npy: the scan file is empty \(0 bytes\)"):
+        SC.read_scan(SC.ScanSpec(path=f, step=(STEP, STEP)))
+    with pytest.raises(ValueError, match=r"empty\.npy: the scan file is empty"):
+        SC.check_scan_header(SC.ScanSpec(path=f, step=(STEP, STEP)))
+
+
+def test_flat_scan_is_an_error_naming_it(tmp_path):
+    f = tmp_path / "flat.npy"
+    i, j = np.meshgrid(np.arange(200), np.arange(150), indexing="ij")
+    np.save(f, 1e-4 + 2e-7 * i - 1e-7 * j)  # a tilted plane: flat after detrending
+    with pytest.raises(ValueError, match=r"flat\.npy: the scan is flat"):
+        SC.read_scan(SC.ScanSpec(path=f, step=(STEP, STEP)))
+
+
+@pytest.mark.parametrize("declared, true_unit", [("mm", "m"), ("m", "mm"), ("um", "nm"), ("pm", "um")])
+def test_implausible_range_names_the_suspected_unit(field, tmp_path, declared, true_unit):
+    f = tmp_path / "unit.npy"
+    np.save(f, field / SC.UNIT_SCALE[true_unit])  # written in true_unit
+    with pytest.raises(ValueError, match=rf"unit\.npy: heights span .* look like {true_unit} \(set height_unit: {true_unit}"):
+        SC.read_scan(SC.ScanSpec(path=f, step=(STEP, STEP), height_unit=declared))
+
+
+@pytest.mark.parametrize("unit", ["nm", "pm"])
+def test_nm_and_pm_units(field, tmp_path, unit):
+    f = tmp_path / "small.npy"
+    np.save(f, field / SC.UNIT_SCALE[unit])
+    scan = SC.read_scan(SC.ScanSpec(path=f, step=(STEP, STEP), height_unit=unit, detrend="none"))
+    np.testing.assert_allclose(scan.height, field, rtol=1e-14, atol=0)
+
+
+def test_netcdf_unit_attribute_as_surface_topography_writes_it(field, tmp_path):
+    f = tmp_path / "unit.nc"
+    x = np.arange(field.shape[0]) * STEP * 1e3
+    y = np.arange(field.shape[1]) * STEP * 1e3
+    xr.Dataset(
+        {"heights": (("x", "y"), field * 1e3, {"unit": "mm"})},
+        coords={"x": ("x", x, {"unit": "mm"}), "y": ("y", y, {"unit": "mm"})},
+    ).to_netcdf(f)
+    scan = SC.read_scan(SC.ScanSpec(path=f, height_unit="mm", detrend="none"))
+    np.testing.assert_allclose(scan.step, (STEP, STEP), rtol=1e-12)
+    np.testing.assert_allclose(scan.height, field, rtol=1e-14, atol=0)
+    with pytest.raises(ValueError, match=r"unit\.nc: variable 'heights' has units 'mm' but height_unit is 'm'"):
+        SC.read_scan(SC.ScanSpec(path=f, detrend="none"))
+
+
+def test_header_check_reads_shape_and_step_without_the_data(field, tmp_path):
+    np.save(tmp_path / "a.npy", field)
+    info = SC.check_scan_header(SC.ScanSpec(path=tmp_path / "a.npy", step=(STEP, STEP)))
+    assert info["shape"] == field.shape and info["step"] == (STEP, STEP) and info["format"] == "npy"
+    xr.Dataset({"z": (("x", "y"), field)}, coords={"x": np.arange(field.shape[0]) * STEP,
+                                                   "y": np.arange(field.shape[1]) * 2 * STEP}).to_netcdf(tmp_path / "b.nc")
+    info = SC.check_scan_header(SC.ScanSpec(path=tmp_path / "b.nc"))
+    assert info["shape"] == field.shape
+    np.testing.assert_allclose(info["step"], (STEP, 2 * STEP), rtol=1e-12)
+
+
+# --- crop window ----------------------------------------------------------------------------------
+def test_border_nans_read_with_a_crop_window_give_the_peaks_of_the_array_cropped_in_memory(field, tmp_path):
+    """Issue 15, must show 3."""
+    h = field.copy()
+    h[:9] = np.nan  # NaNs along the x = 0 border
+    h[-1, 40:60] = np.nan  # and a few on the opposite border
+    f = tmp_path / "border.npy"
+    np.save(f, h)
+    # without a crop: the error names the file and suggests the largest NaN-free window
+    with pytest.raises(ValueError, match=r"border\.npy: .*largest NaN-free window is crop: \{origin: \[") as err:
+        S.prepare_surface("scan", _preset(f, step=STEP))
+    n_valid = (h.shape[0] - 10, h.shape[1])
+    assert f"({n_valid[0]} x {n_valid[1]} samples)" in str(err.value)
+    crop = {"origin": [9 * STEP, 0.0], "size": [n_valid[0] * STEP, n_valid[1] * STEP]}
+    ds = S.prepare_surface("scan", _preset(f, step=STEP, crop=crop))
+    np.save(tmp_path / "cropped.npy", field[9:-1])
+    ref = S.prepare_surface("scan", _preset(tmp_path / "cropped.npy", step=STEP))
+    assert ds.z1.shape == (PATCH[0], PATCH[1])
+    np.testing.assert_array_equal(ds.z1.values, ref.z1.values)
+    np.testing.assert_array_equal(ds.height.values, ref.height.values)
+    # and against the peaks computed directly from the array cropped in memory (detrended as the reader does)
+    o = _centre_origin(field[9:-1])
+    np.testing.assert_array_equal(ds.z1.values, _expected_z1(SC.plane_detrend(field[9:-1]), o))
+
+
+def test_crop_applies_before_gap_filling(tmp_path):
+    i, j = np.meshgrid(np.arange(300), np.arange(260), indexing="ij")
+    h = 2e-4 + 1e-6 * i - 3e-7 * j + 1e-4 * np.sin(i / 7.0) * np.cos(j / 5.0)
+    h[:5] = np.nan  # border: only a crop removes it
+    h[100:103, 50:53] = np.nan  # interior: filled
+    f = tmp_path / "gaps.npy"
+    np.save(f, h)
+    crop = ((5 * STEP, 0.0), (295 * STEP, 260 * STEP))
+    scan = SC.read_scan(SC.ScanSpec(path=f, step=(STEP, STEP), fill_gaps=True, crop=crop, detrend="none"))
+    assert scan.height.shape == (295, 260) and scan.filled == 9
+    assert not np.isnan(scan.height).any()
+    np.testing.assert_array_equal(scan.height[:95], h[5:100])
+
+
+def test_crop_outside_the_scan_is_an_error(field, tmp_path):
+    np.save(tmp_path / "c.npy", field)
+    with pytest.raises(ValueError, match=r"c\.npy: crop window .* does not lie inside the scan of 416 x 312 samples"):
+        S.prepare_surface("scan", _preset(tmp_path / "c.npy", step=STEP, crop={"origin": [0.01, 0.0], "size": [0.01, 0.01]}))
+    with pytest.raises(ValueError, match=r"surfaces\.scan\.crop"):
+        S.prepare_surface("scan", _preset(tmp_path / "c.npy", step=STEP, crop={"origin": [0.0, 0.0]}))
+
+
+def test_largest_valid_window_matches_brute_force():
+    rng = np.random.default_rng(3)
+    for _ in range(30):
+        valid = rng.uniform(size=(rng.integers(1, 12), rng.integers(1, 12))) > rng.uniform(0.05, 0.5)
+        (i0, j0), (ni, nj) = SC.largest_valid_window(valid)
+        best = 0
+        nx, ny = valid.shape
+        for a in range(nx):
+            for b in range(ny):
+                for c in range(a + 1, nx + 1):
+                    for d in range(b + 1, ny + 1):
+                        if valid[a:c, b:d].all():
+                            best = max(best, (c - a) * (d - b))
+        assert ni * nj == best
+        assert best == 0 or valid[i0 : i0 + ni, j0 : j0 + nj].all()
+
+
+# --- SurfaceTopography's own writers (the scans extra; installed by the test extra) -------------------
+@pytest.fixture(scope="module")
+def topography(field):
+    """A SurfaceTopography topography of the field in mm (416 x 312 samples)."""
+    from SurfaceTopography import Topography
+
+    nx, ny = field.shape
+    return Topography(field * 1e3, physical_sizes=(nx * STEP * 1e3, ny * STEP * 1e3), unit="mm")
+
+
+@pytest.mark.parametrize("dtype, rtol", [("D", 1e-15), ("F", 1e-7), ("L", 1e-9), ("I", 2e-5)])
+def test_x3p_written_by_surface_topography(field, topography, tmp_path, dtype, rtol):
+    f = tmp_path / f"scan_{dtype}.x3p"
+    topography.to_x3p(str(f), dtype=dtype)
+    scan = SC.read_scan(SC.ScanSpec(path=f, detrend="none"))
+    np.testing.assert_allclose(scan.step, (STEP, STEP), rtol=1e-7)
+    pv = field.max() - field.min()
+    # integer types store (h - min) / range on the full range of the type: half a quantum of error
+    np.testing.assert_allclose(scan.height, field, rtol=0, atol=rtol * pv + 1e-15 * pv)
+
+
+def test_gwy_written_by_surface_topography(field, topography, tmp_path):
+    f = tmp_path / "scan.gwy"
+    topography.to_gwy(str(f))
+    scan = SC.read_scan(SC.ScanSpec(path=f, detrend="none"))
+    np.testing.assert_allclose(scan.step, (STEP, STEP), rtol=1e-12)
+    np.testing.assert_allclose(scan.height, field, rtol=1e-15, atol=0)
+
+
+def test_netcdf_written_by_surface_topography(field, topography, tmp_path):
+    f = tmp_path / "scan.nc"
+    topography.to_netcdf(str(f))
+    scan = SC.read_scan(SC.ScanSpec(path=f, height_unit="mm", detrend="none"))  # our netCDF reader
+    np.testing.assert_allclose(scan.step, (STEP, STEP), rtol=1e-12)
+    np.testing.assert_allclose(scan.height, field, rtol=1e-15, atol=0)
+    scan = SC.read_scan(SC.ScanSpec(path=f, format="instrument", detrend="none"))  # through SurfaceTopography
+    np.testing.assert_allclose(scan.height, field, rtol=1e-15, atol=0)
+
+
+def test_text_written_by_surface_topography(field, topography, tmp_path):
+    f = tmp_path / "scan.txt"
+    topography.to_matrix(str(f))
+    # our text reader: rows are y, columns x, '#' header lines are comments; step and unit from the preset
+    scan = SC.read_scan(SC.ScanSpec(path=f, step=(STEP, STEP), height_unit="mm", detrend="none"))
+    np.testing.assert_allclose(scan.height, field, rtol=1e-15, atol=0)
+    # SurfaceTopography's reader takes the sizes and the unit from the header
+    scan = SC.read_scan(SC.ScanSpec(path=f, format="instrument", detrend="none"))
+    np.testing.assert_allclose(scan.step, (STEP, STEP), rtol=1e-12)
+    np.testing.assert_allclose(scan.height, field, rtol=1e-15, atol=0)
+
+
+def test_instrument_file_without_a_unit_needs_the_preset_units(field, tmp_path):
+    from SurfaceTopography import Topography
+
+    nx, ny = field.shape
+    f = tmp_path / "nounit.txt"
+    Topography(field * 1e6, physical_sizes=(nx * STEP * 1e6, ny * STEP * 1e6)).to_matrix(str(f))
+    with pytest.raises(ValueError, match=r"nounit\.txt: the file states no length unit; set height_unit and lateral_unit"):
+        SC.read_scan(SC.ScanSpec(path=f, format="instrument"))
+    spec = SC.scan_spec_from_config("s", {"path": str(f), "format": "instrument", "height_unit": "um",
+                                          "lateral_unit": "um", "detrend": "none"})
+    scan = SC.read_scan(spec)
+    np.testing.assert_allclose(scan.step, (STEP, STEP), rtol=1e-12)
+    np.testing.assert_allclose(scan.height, field, rtol=1e-14, atol=0)
+
+
+def test_instrument_header_check(topography, tmp_path):
+    f = tmp_path / "h.x3p"
+    topography.to_x3p(str(f))
+    info = SC.check_scan_header(SC.ScanSpec(path=f))
+    assert info["format"] == "instrument" and info["shape"] == (416, 312)
+    np.testing.assert_allclose(info["step"], (STEP, STEP), rtol=1e-7)

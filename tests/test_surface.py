@@ -8,6 +8,7 @@ import pytest
 from pathlib import Path
 
 from tyreroad import surface as S
+from tyreroad import texture as T
 from tyreroad.config import load_config
 
 STEP = 1e-3 / 26
@@ -103,7 +104,7 @@ def test_mpd_of_cosine_exact():
     field = prof[:, None] + np.array([0.0, 1e-3])[None, :] + 2e-3 * x[:, None]
     # samples are half a step off the crests: the sampled peak is A cos(pi step / lambda)
     expected = amp * np.cos(np.pi * STEP / lam)
-    assert S.mean_profile_depth(field, STEP) == pytest.approx(expected, rel=1e-9)
+    assert T.mean_profile_depth(field, STEP) == pytest.approx(expected, rel=1e-9)
 
 
 def test_mpd_two_level_profile():
@@ -117,10 +118,10 @@ def test_mpd_two_level_profile():
     prof[n - 1 - 1400] = 0.1e-3
     mean = prof.mean()
     expected = 0.5 * ((0.3e-3 - mean) + (0.3e-3 - mean))
-    assert S.mean_profile_depth(prof, STEP) == pytest.approx(expected, rel=1e-12)
+    assert T.mean_profile_depth(prof, STEP) == pytest.approx(expected, rel=1e-12)
     # two baselines in a 200 mm profile are averaged
     prof2 = np.concatenate([prof, 0.5 * prof])
-    assert S.mean_profile_depth(prof2, STEP) == pytest.approx(0.75 * expected, rel=1e-12)
+    assert T.mean_profile_depth(prof2, STEP) == pytest.approx(0.75 * expected, rel=1e-12)
 
 
 def test_texture_level_of_pure_sinusoid():
@@ -128,7 +129,7 @@ def test_texture_level_of_pure_sinusoid():
     x = (np.arange(n) + 0.5) * STEP
     amp, lam = 0.3e-3, 10e-3  # band centre 10 mm; 10 periods in the profile
     field = np.repeat((amp * np.cos(2 * np.pi * x / lam))[:, None], 4, axis=1)
-    wl, level = S.texture_level_spectrum(field, STEP)
+    wl, level = T.texture_level_spectrum(field, STEP)
     k = int(np.argmax(level))
     assert wl[k] == pytest.approx(10e-3, rel=1e-9)
     expected = 20 * np.log10(amp / np.sqrt(2) / 1e-6)  # 46.53 dB
@@ -145,7 +146,7 @@ def test_texture_levels_two_sinusoids_and_hann_spread():
     # into each neighbour bin (33.3 mm -> 31.6 mm band, 20 mm -> 19.95 mm band), 2/3 stays.
     a2, a25 = 0.2e-3, 0.1e-3
     z = a2 * np.cos(2 * np.pi * x / 2e-3) + a25 * np.cos(2 * np.pi * x / 25e-3)
-    wl, level = S.texture_level_spectrum(z, STEP)
+    wl, level = T.texture_level_spectrum(z, STEP)
     ms = 10 ** (level / 10) * 1e-12
 
     def band(lam):
@@ -159,16 +160,16 @@ def test_texture_levels_two_sinusoids_and_hann_spread():
 
 def test_texture_band_limits_follow_field_length():
     # a 30 mm profile cannot resolve wavelengths above 15 mm
-    wl, _ = S.texture_level_spectrum(np.random.default_rng(0).standard_normal(780) * 1e-4, STEP)
+    wl, _ = T.texture_level_spectrum(np.random.default_rng(0).standard_normal(780) * 1e-4, STEP)
     assert wl.max() <= 15e-3 * 10**0.05 and wl.max() > 10e-3
     assert wl.min() == pytest.approx(0.501e-3, rel=1e-3)
 
 
 def test_rms_and_skewness_simple():
     h = np.array([0.0, 0.0, 0.0, 3.0])
-    assert S.rms_height(h) == pytest.approx(np.sqrt(27 / 16))
+    assert T.rms_height(h) == pytest.approx(np.sqrt(27 / 16))
     # mean 0.75; deviations -0.75 x3, 2.25: m3 = (3 * -0.421875 + 11.390625)/4
-    assert S.skewness(h) == pytest.approx(((3 * -0.421875 + 11.390625) / 4) / (27 / 16) ** 1.5)
+    assert T.skewness(h) == pytest.approx(((3 * -0.421875 + 11.390625) / 4) / (27 / 16) ** 1.5)
 
 
 # --- elements and patch selection --------------------------------------------------------------
@@ -190,7 +191,7 @@ def test_element_samples_view_and_peaks():
 
 def test_peak_fraction_within():
     z1 = np.array([[0.0, -0.05e-3], [-0.12e-3, -0.3e-3]])
-    f = S.peak_fraction_within(z1, [0.05e-3, 0.10e-3, 0.15e-3])
+    f = T.peak_fraction_within(z1, [0.05e-3, 0.10e-3, 0.15e-3])
     assert f.tolist() == [0.5, 0.5, 0.75]
 
 
@@ -228,7 +229,7 @@ def test_select_patch_errors():
 def test_self_affine_field_rms_and_slope():
     shape, step = (512, 512), 0.1e-3
     h = S.self_affine_field(shape, step, 0.2e-3, 0.7, 10e-3, np.random.default_rng(2))
-    assert S.rms_height(h) == pytest.approx(0.2e-3, rel=1e-12)
+    assert T.rms_height(h) == pytest.approx(0.2e-3, rel=1e-12)
     assert abs(h.mean()) < 1e-18
     # radially averaged PSD slope between 4 and 0.8 mm wavelength: -2(1 + H) = -3.4
     p = np.abs(np.fft.fft2(h)) ** 2
@@ -252,8 +253,8 @@ def test_skew_transform_hits_target():
     h = S.self_affine_field((300, 300), 0.1e-3, 0.3e-3, 0.8, 5e-3, np.random.default_rng(4))
     for target in (-1.0, 0.6):
         t = S.skew_transform(h, target)
-        assert S.skewness(t) == pytest.approx(target, abs=0.02)
-        assert S.rms_height(t) == pytest.approx(0.3e-3, rel=1e-9)
+        assert T.skewness(t) == pytest.approx(target, abs=0.02)
+        assert T.rms_height(t) == pytest.approx(0.3e-3, rel=1e-9)
         # monotone: the ordering of heights is kept
         assert np.array_equal(np.argsort(t.ravel()[:500]), np.argsort(h.ravel()[:500]))
 
@@ -314,3 +315,15 @@ def test_roller_presses_stone_tops_down_to_its_level():
     assert free.max() > 4e-5  # about 2.5 standard deviations for ~100 stones
     # rolling concentrates the stone tops at the plane: many samples within 5 um of the top
     assert np.mean(rolled > rolled.max() - 5e-6) > 5 * np.mean(free > free.max() - 5e-6)
+
+
+def test_element_samples_flat_is_row_major_inside_the_element():
+    """The one element-slicing helper: flat=True gives the layout the springs stage uses."""
+    n = 3
+    h = np.arange(6 * 9, dtype=float).reshape(6, 9)
+    flat = S.element_samples(h, n, flat=True)
+    assert flat.shape == (2, 3, 9)
+    # element (1, 2) holds rows 3..5, columns 6..8, in C order
+    np.testing.assert_array_equal(flat[1, 2], h[3:6, 6:9].ravel())
+    ref = h.reshape(2, n, 3, n).transpose(0, 2, 1, 3).reshape(2, 3, n * n)  # springs' former private copy
+    np.testing.assert_array_equal(flat, ref)

@@ -3,7 +3,8 @@
 Reproduces and extends the study of :data:`SEED_REFERENCE` (Winroth, Andersson & Kropp, J. Sound
 Vib. 2014), cited in one place: every module refers to this constant.
 
-Modules, one per concept: ``surface`` (road patches), ``scans`` (measured scans), ``springs`` (element
+Modules, one per concept: ``surface`` (road patches), ``texture`` (ISO 13473 texture statistics),
+``scans`` (measured scans), ``config`` (planning-time config checks), ``springs`` (element
 contact springs), ``material`` (visco-elastic tread), ``layer`` (layer compliance), ``greens``
 (element Green's functions), ``contact`` (time-marching contact solver), with ``loading`` (prescribed motions), ``history``
 (displacement from past forces), ``newton`` (the step solve), ``convolution`` (FFT sums), ``study`` (aggregation),

@@ -1,23 +1,97 @@
-"""Loading and checking the study configuration.
+"""Loading and checking the study configuration, before any job runs.
 
-The JSON schema (``workflow/schemas/config.schema.yaml``) checks each key's type, range and unit.
-:func:`check_references` adds the checks a schema cannot express: names in the ``study`` section
-that must exist as presets, and consistent ranges. Snakemake runs both before any job.
+Snakemake runs these checks while it plans (``snakemake -n`` included), from
+``workflow/rules/common.smk``:
+
+1. :func:`check_config_files`: every YAML config file is read again with duplicate keys as errors
+   (YAML itself keeps the last value silently).
+2. :func:`validate_schema`: the JSON schema (``workflow/schemas/config.schema.yaml``) checks each
+   key's type, range and unit; the error names the key path, the value and what is expected.
+3. :func:`check_config`: the rules a schema cannot express: cross-references between sections,
+   FFT sizes and lag counts, grids that must divide each other, file-name labels that must be
+   unique, ``solver.d_max`` against the spring table and the tread thickness, every surface preset
+   as the surface stage will parse it, and every scan file (exists, not empty, header readable,
+   crop window and patch inside the scan).
+4. :func:`check_job`: per job of the plan, the presets named by its wildcards (a requested target
+   such as ``results/surface/foo.nc`` names a preset ``foo`` that must exist).
+
+Every failure raises :class:`ConfigError` with one short paragraph: the key path (or file), the
+value, and what is expected.
+
+The module also maps each workflow stage to the tyreroad modules it runs
+(:data:`STAGE_MODULES`, :func:`stage_modules`) and hashes their source (:func:`source_hash`); the
+rules pass that hash as a param so that a change in the package re-plans exactly the stages whose
+code changed.
 """
 
 from __future__ import annotations
 
+import ast
 import copy
+import hashlib
+import math
+import re
+from functools import lru_cache
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any, Iterable, Mapping, Sequence
 
 import yaml
 
-__all__ = ["ConfigError", "load_config", "merge", "check_references"]
+__all__ = [
+    "ConfigError",
+    "load_config",
+    "read_yaml",
+    "merge",
+    "check_config_files",
+    "validate_schema",
+    "check_references",
+    "check_config",
+    "check_job",
+    "STAGE_MODULES",
+    "stage_modules",
+    "source_hash",
+]
 
 
 class ConfigError(ValueError):
     """The configuration is invalid; the message names the key and what was expected."""
+
+
+# ---------------------------------------------------------------------------------------------
+# Reading YAML
+# ---------------------------------------------------------------------------------------------
+class _UniqueKeyLoader(yaml.SafeLoader):
+    """SafeLoader that refuses a key given twice in one mapping."""
+
+    source = "<config>"
+
+    def construct_mapping(self, node, deep=False):
+        seen: dict[Any, Any] = {}
+        for key_node, _ in node.value:
+            key = self.construct_object(key_node, deep=deep)
+            if key in seen:
+                raise ConfigError(
+                    f"{self.source}, line {key_node.start_mark.line + 1}: duplicate key {key!r} (first given on "
+                    f"line {seen[key] + 1}); YAML would silently keep only the last value, remove one of them"
+                )
+            seen[key] = key_node.start_mark.line
+        return super().construct_mapping(node, deep=deep)
+
+
+def read_yaml(path: str | Path) -> dict[str, Any]:
+    """Read one YAML config file; a duplicate key is a :class:`ConfigError` naming key, file and line."""
+    path = Path(path)
+    if not path.is_file():
+        raise ConfigError(f"{path}: config file not found")
+    loader_cls = type("_Loader", (_UniqueKeyLoader,), {"source": str(path)})
+    with path.open() as fh:
+        try:
+            data = yaml.load(fh, Loader=loader_cls) or {}  # noqa: S506 - a SafeLoader subclass
+        except yaml.YAMLError as exc:
+            raise ConfigError(f"{path}: not valid YAML ({exc})") from None
+    if not isinstance(data, Mapping):
+        raise ConfigError(f"{path}: expected a mapping of config sections at the top level")
+    return dict(data)
 
 
 def merge(base: Mapping[str, Any], overlay: Mapping[str, Any]) -> dict[str, Any]:
@@ -38,15 +112,125 @@ def load_config(*paths: str | Path) -> dict[str, Any]:
     """Read one or more YAML config files, later ones overlaid on earlier ones."""
     config: dict[str, Any] = {}
     for path in paths:
-        path = Path(path)
-        if not path.exists():
-            raise ConfigError(f"{path}: config file not found")
-        with path.open() as fh:
-            data = yaml.safe_load(fh) or {}
-        if not isinstance(data, Mapping):
-            raise ConfigError(f"{path}: expected a mapping of config sections at the top level")
-        config = merge(config, data)
+        config = merge(config, read_yaml(path))
     return config
+
+
+def check_config_files(paths: Iterable[str | Path]) -> None:
+    """Read every config file Snakemake loaded, with duplicate keys as errors."""
+    for path in paths:
+        read_yaml(path)
+
+
+# ---------------------------------------------------------------------------------------------
+# Schema
+# ---------------------------------------------------------------------------------------------
+def _key_path(parts: Iterable[Any]) -> str:
+    out = ""
+    for p in parts:
+        out += f"[{p}]" if isinstance(p, int) else (f".{p}" if out else str(p))
+    return out or "(top level)"
+
+
+def _show(value: Any) -> str:
+    text = repr(value)
+    return text if len(text) <= 80 else text[:77] + "..."
+
+
+def _resolve_ref(schema: Mapping, node: Mapping) -> Mapping:
+    while isinstance(node, Mapping) and "$ref" in node:
+        ref = node["$ref"]
+        target: Any = schema
+        for part in ref.lstrip("#/").split("/"):
+            target = target[part]
+        node = {**target, **{k: v for k, v in node.items() if k != "$ref"}}
+    return node
+
+
+def _schema_at(schema: Mapping, path: Sequence[Any]) -> Mapping:
+    """The sub-schema (with its description) that describes the key at ``path``."""
+    node = _resolve_ref(schema, schema)
+    for part in path:
+        if isinstance(part, int):
+            node = _resolve_ref(schema, node.get("items", {}))
+        elif part in node.get("properties", {}):
+            node = _resolve_ref(schema, node["properties"][part])
+        elif isinstance(node.get("additionalProperties"), Mapping):
+            node = _resolve_ref(schema, node["additionalProperties"])
+        else:
+            return {}
+    return node
+
+
+@lru_cache(maxsize=4)
+def _load_schema(schema_path: str) -> dict[str, Any]:
+    with open(schema_path) as fh:
+        return yaml.safe_load(fh)
+
+
+def validate_schema(config: Mapping[str, Any], schema_path: str | Path) -> None:
+    """Validate ``config`` against the JSON schema; raise :class:`ConfigError` for the first error.
+
+    The message is one paragraph: the key path, the value, the violated rule and the key's
+    description from the schema (which states the unit and the default). Defaults are not
+    inserted here (Snakemake's ``validate`` does that afterwards).
+    """
+    import jsonschema
+
+    schema = _load_schema(str(schema_path))
+    validator_cls = jsonschema.validators.validator_for(schema)
+    errors = list(validator_cls(schema).iter_errors(config))
+    if not errors:
+        return
+    err = jsonschema.exceptions.best_match(errors)
+    path = list(err.absolute_path)
+    if err.validator == "additionalProperties":
+        import difflib
+
+        known = sorted(_schema_at(schema, path).get("properties", {}))
+        extra = sorted(set(err.instance) - set(known))
+        close = difflib.get_close_matches(str(extra[0]), known, n=1) if extra else []
+        hint = f" did you mean {close[0]!r}?" if close else ""
+        listed = f"expected one of: {', '.join(known)}" if len(known) <= 12 else f"{len(known)} keys are known"
+        raise ConfigError(
+            f"{_key_path(path + extra[:1])}: unknown key;{hint} {listed} "
+            f"(each described in workflow/schemas/config.schema.yaml)"
+        )
+    if "propertyNames" in err.relative_schema_path:
+        raise ConfigError(
+            f"{_key_path(path)}: preset name {err.instance!r} is not path safe; expected letters, digits, "
+            f"'.' and '-', starting with a letter or digit (it becomes a file name and a wildcard)"
+        )
+    if err.validator == "required":
+        raise ConfigError(f"{_key_path(path)}: {err.message}")
+    value = err.instance
+    hint = ""
+    if isinstance(value, str):
+        try:
+            float(value)
+            hint = f" (YAML reads {value} as text: write the exponent with a sign and the mantissa with a point, e.g. 2.0e+7)"
+        except ValueError:
+            pass
+    desc = _schema_at(schema, path).get("description", "")
+    raise ConfigError(
+        f"{_key_path(path)} = {_show(value)}: {err.message}{hint}."
+        + (f" Expected: {desc}" if desc else "")
+    )
+
+
+# ---------------------------------------------------------------------------------------------
+# Cross-field rules
+# ---------------------------------------------------------------------------------------------
+def _fail(key: str, value: Any, expected: str) -> ConfigError:
+    return ConfigError(f"{key} = {_show(value)}: expected {expected}")
+
+
+def _wrap(exc: Exception, key: str) -> ConfigError:
+    """A package ValueError as a ConfigError; prefix the key path unless the message names one."""
+    msg = str(exc).strip("'\"")
+    if re.match(r"^(surfaces|materials|springs|greens|solver|study|results_dir)\b", msg) or msg.startswith("/"):
+        return ConfigError(msg)
+    return ConfigError(f"{key}: {msg}")
 
 
 def check_references(config: Mapping[str, Any]) -> None:
@@ -62,24 +246,29 @@ def check_references(config: Mapping[str, Any]) -> None:
     study = config.get("study", {})
     if study.get("surface") not in surfaces:
         raise ConfigError(
-            f"study.surface: {study.get('surface')!r} is not a preset in surfaces (have: {sorted(surfaces)})"
+            f"study.surface = {study.get('surface')!r}: not a preset in surfaces (have: {', '.join(sorted(surfaces))})"
         )
     if study.get("reference_material") not in materials:
         raise ConfigError(
-            f"study.reference_material: {study.get('reference_material')!r} is not a preset in materials "
-            f"(have: {sorted(materials)})"
+            f"study.reference_material = {study.get('reference_material')!r}: not a preset in materials "
+            f"(have: {', '.join(sorted(materials))})"
         )
     if study.get("reference_material") not in study.get("materials", []):
-        raise ConfigError("study.materials: must include study.reference_material")
+        raise ConfigError(
+            f"study.materials = {study.get('materials')!r}: must include study.reference_material "
+            f"{study.get('reference_material')!r}"
+        )
     for i, name in enumerate(study.get("materials", [])):
         if name not in materials:
-            raise ConfigError(f"study.materials[{i}]: {name!r} is not a preset in materials (have: {sorted(materials)})")
+            raise ConfigError(
+                f"study.materials[{i}] = {name!r}: not a preset in materials (have: {', '.join(sorted(materials))})"
+            )
     for name, preset in materials.items():
         if "_" in name:
             raise ConfigError(f"materials.{name}: preset names may not contain '_' (it separates wildcards)")
         base = preset.get("base")
         if base is not None and base not in materials:
-            raise ConfigError(f"materials.{name}.base: {base!r} is not a preset in materials")
+            raise ConfigError(f"materials.{name}.base = {base!r}: not a preset in materials")
         if base is None and "model" not in preset:
             raise ConfigError(f"materials.{name}: needs either 'model' or 'base'")
     loadings = config.get("loadings", {})
@@ -104,5 +293,434 @@ def check_references(config: Mapping[str, Any]) -> None:
     d_max = config.get("solver", {}).get("d_max", 2.5e-4)
     if not lo < hi <= d_max * (1 + 1e-12):
         raise ConfigError(
-            f"study.saturation_range: expected lo < hi <= solver.d_max = {d_max:g} m, got [{lo:g}, {hi:g}]"
+            f"study.saturation_range = [{lo:g}, {hi:g}]: expected lo < hi <= solver.d_max = {d_max:g} m"
         )
+
+
+#: Scan files up to this size [bytes] are read in full at planning time (all the job's checks of
+#: the heights run then); larger ones get the header check only, the rest runs in the job.
+SCAN_READ_LIMIT = 64 * 2**20
+
+#: Minimum number of steps of a run: the study differentiates F(d) with a 3-point rule.
+MIN_RUN_STEPS = 3
+
+
+def _check_case_collisions(section: str, names: Iterable[str]) -> None:
+    seen: dict[str, str] = {}
+    for name in names:
+        low = name.lower()
+        if low in seen:
+            raise ConfigError(
+                f"{section}.{name}: preset name collides with {section}.{seen[low]} on case-insensitive file "
+                f"systems (macOS, Windows); expected names that differ in more than case"
+            )
+        seen[low] = name
+
+
+def _check_results_dir(config: Mapping[str, Any]) -> None:
+    value = config.get("results_dir", "results")
+    parts = Path(value).parts
+    if not value or value.strip() != value or ".." in parts or Path(value) == Path("."):
+        raise _fail("results_dir", value, "a folder path without '..' (default: results)")
+    if parts and parts[0] in {"workflow", "config", "tyreroad", "tests", "benchmarks", "docs", "profiles", ".snakemake"}:
+        raise _fail("results_dir", value, "a folder outside the repository's source folders (e.g. results-mystudy)")
+
+
+def _check_solver_and_study(config: Mapping[str, Any]) -> None:
+    from .study import StudySettings, case_label
+
+    solver = config.get("solver", {})
+    study = config["study"]
+    greens = config.get("greens", {})
+    springs = config.get("springs", {})
+    d_max = float(solver.get("d_max", 2.5e-4))
+
+    # Green's functions: FFT size and kept lags
+    n_fft = greens.get("n_fft", 4096)
+    if isinstance(n_fft, int) and (n_fft < 4096 or n_fft & (n_fft - 1)):
+        raise _fail("greens.n_fft", n_fft, "a power of two >= 4096 (e.g. 4096, 8192, 16384)")
+    n_lags = greens.get("n_lags", 256)
+    if isinstance(n_lags, int) and isinstance(n_fft, int) and n_lags > n_fft // 2:
+        raise _fail("greens.n_lags", n_lags, f"at most greens.n_fft / 2 = {n_fft // 2}")
+
+    # springs: the table grid
+    zeta_max = float(springs.get("zeta_max", 1e-3))
+    zeta_step = float(springs.get("zeta_step", 1e-6))
+    ratio = zeta_max / zeta_step
+    if abs(ratio - round(ratio)) > 1e-6 * ratio:
+        raise _fail(
+            "springs.zeta_step", zeta_step,
+            f"a step that divides springs.zeta_max = {zeta_max:g} m into whole steps (e.g. "
+            f"{zeta_max / math.ceil(ratio):.4g} m)",
+        )
+    # solver.d_max against the spring table and the layer
+    if d_max > zeta_max * (1 + 1e-12):
+        raise _fail(
+            "solver.d_max", d_max,
+            f"at most springs.zeta_max = {zeta_max:g} m: an element's compression reaches d_max and the "
+            f"spring table ends at zeta_max",
+        )
+    from .material import material_from_config
+
+    for name in study.get("materials", []):
+        try:
+            h = material_from_config(name, config["materials"]).thickness
+        except (ValueError, KeyError, TypeError) as exc:
+            raise _wrap(exc, f"materials.{name}") from None
+        if d_max >= 0.5 * h:
+            raise _fail(
+                "solver.d_max", d_max,
+                f"less than half the tread thickness of study material {name!r} ({0.5 * h:g} m); the layer "
+                f"model is linear (small strain)",
+            )
+    # quasi-static grid
+    qs = float(solver.get("quasistatic_step", 1e-6))
+    if math.ceil(d_max / qs * (1 - 1e-12)) < MIN_RUN_STEPS - 1 or qs > d_max:
+        raise _fail(
+            "solver.quasistatic_step", qs,
+            f"at most solver.d_max / {MIN_RUN_STEPS - 1} = {d_max / (MIN_RUN_STEPS - 1):g} m (a run needs "
+            f"{MIN_RUN_STEPS} indentation points)",
+        )
+    # dynamic runs: enough time steps, unique file labels
+    fs = float(greens.get("sample_rate", 51200.0))
+    labels: dict[str, int] = {}
+    for i, a in enumerate(study.get("accelerations", [])):
+        label = case_label("", "dynamic", a).split("/")[-1]
+        if label in labels:
+            j = labels[label]
+            raise ConfigError(
+                f"study.accelerations[{i}] = {a!r}: gives the same file label '{label}' (format '{{:g}}') as "
+                f"study.accelerations[{j}] = {study['accelerations'][j]!r}; expected accelerations that differ "
+                f"in their first 6 significant digits"
+            )
+        labels[label] = i
+        steps = math.ceil(fs * math.sqrt(2.0 * d_max / float(a)) * (1.0 - 1e-12))
+        if steps < MIN_RUN_STEPS:
+            a_max = 2.0 * d_max * (fs / MIN_RUN_STEPS) ** 2
+            raise _fail(
+                f"study.accelerations[{i}]", a,
+                f"at most {a_max:.4g} m/s^2: the run reaches solver.d_max in {steps} time step(s) at "
+                f"greens.sample_rate = {fs:g} Hz, and needs at least {MIN_RUN_STEPS}",
+            )
+    # the study's indentation grid and saturation range
+    try:
+        StudySettings.from_config(study, d_max=d_max)
+    except ValueError as exc:
+        raise _wrap(exc, "study") from None
+
+
+def _check_package_settings(config: Mapping[str, Any]) -> None:
+    """Build every settings object the jobs build, so that their checks run now."""
+    from .contact import SolverSettings
+    from .greens import GreensSettings
+    from .material import material_from_config
+    from .springs import SpringModel
+
+    for section, build in (("greens", GreensSettings.from_config), ("springs", SpringModel.from_config),
+                           ("solver", SolverSettings.from_config)):
+        try:
+            build(config.get(section, {}))
+        except (ValueError, TypeError) as exc:
+            raise _wrap(exc, section) from None
+    for name in config.get("materials", {}):
+        try:
+            material_from_config(name, config["materials"])
+        except (ValueError, KeyError, TypeError) as exc:
+            raise _wrap(exc, f"materials.{name}") from None
+
+
+def surface_plan(name: str, spec: Mapping[str, Any], base_dir: str | Path = ".") -> dict[str, Any]:
+    """Parse a surface preset as the surface stage will, and check that its patch fits.
+
+    For ``generator: file`` the scan file is checked cheaply (:func:`tyreroad.scans.check_scan_header`).
+
+    Returns
+    -------
+    dict
+        ``element_size`` [m], ``patch_elements``, ``scan`` (header info or None).
+    """
+    from . import scans
+    from . import surface as S
+
+    try:
+        c = S._common(name, spec)
+        generator = spec.get("generator")
+        n = int(c["samples_per_element"])
+        step = float(c["element_size"]) / n
+        px, py = (int(v) for v in c["patch_elements"])
+        info = None
+        if generator in ("iso10844", "spectral"):
+            cls = S.Iso10844Parameters if generator == "iso10844" else S.SpectralParameters
+            params = S._preset_params(cls, name, spec, S.COMMON_KEYS)
+            shape = S._grid_shape(params.field_size, step)
+            if generator == "spectral" and params.short_cutoff is not None and params.short_cutoff >= min(params.field_size):
+                raise _fail(
+                    f"surfaces.{name}.short_cutoff", params.short_cutoff,
+                    f"less than the field size {min(params.field_size):g} m (longer cut-offs remove all power)",
+                )
+            where = f"surfaces.{name}.field_size"
+            have = f"{list(params.field_size)} m ({shape[0]} x {shape[1]} samples at {step:.4g} m)"
+        else:
+            scan_spec = scans.scan_spec_from_config(name, spec, S.COMMON_KEYS)
+            try:
+                info = scans.check_scan_header(scan_spec, base_dir)
+            except (FileNotFoundError, scans.ScanError, ImportError) as exc:
+                raise ConfigError(f"surfaces.{name}.path = {spec.get('path')!r}: {exc}") from None
+            shape = None
+            if info["path"].stat().st_size <= SCAN_READ_LIMIT:
+                # small enough to read in full now: the job's checks (missing samples, flat scan,
+                # height range and unit) then run at planning time too
+                try:
+                    scan = scans.read_scan(scan_spec, base_dir)
+                except (FileNotFoundError, scans.ScanError, ImportError) as exc:
+                    raise ConfigError(f"surfaces.{name}.path = {spec.get('path')!r}: {exc}") from None
+                shape = scans.element_grid_shape(scan.height.shape, scan.step, step)
+            elif info["shape"] is not None and info["step"] is not None:
+                raw_shape = info["shape"]
+                if scan_spec.crop is not None:
+                    raw_shape = scans.crop_window(raw_shape, info["step"], scan_spec.crop, info["path"])[1]
+                shape = scans.element_grid_shape(raw_shape, info["step"], step)
+            where = f"surfaces.{name}.path"
+            have = f"the scan {info['path']} ({'' if shape is None else f'{shape[0]} x {shape[1]} samples at {step:.4g} m'})"
+        if shape is not None:
+            sel = c["selection"]
+            need = (px * n, py * n)
+            if sel.origin is not None:
+                i0, j0 = int(round(sel.origin[0] / step)), int(round(sel.origin[1] / step))
+                if i0 + need[0] > shape[0] or j0 + need[1] > shape[1]:
+                    raise _fail(
+                        f"surfaces.{name}.origin", list(sel.origin),
+                        f"a patch origin such that the {px} x {py}-element patch ({need[0]} x {need[1]} samples) "
+                        f"lies inside {have}",
+                    )
+            elif need[0] > shape[0] or need[1] > shape[1]:
+                raise _fail(
+                    f"surfaces.{name}.patch_elements", [px, py],
+                    f"a patch of at most {shape[0] // n} x {shape[1] // n} elements: it needs {need[0]} x {need[1]} "
+                    f"samples at {step:.4g} m, {where} gives {have}",
+                )
+        return {"element_size": float(c["element_size"]), "patch_elements": (px, py), "scan": info}
+    except ConfigError:
+        raise
+    except (ValueError, TypeError) as exc:
+        raise _wrap(exc, f"surfaces.{name}") from None
+
+
+def check_config(config: Mapping[str, Any], base_dir: str | Path = ".") -> None:
+    """Every check of a schema-valid config that needs no computed result.
+
+    Parameters
+    ----------
+    config : mapping
+        The merged config (after :func:`validate_schema`; schema defaults may be inserted or not).
+    base_dir : path-like
+        Directory against which relative scan paths are resolved (Snakemake's working directory).
+
+    Raises
+    ------
+    ConfigError
+        One paragraph naming the key path, the value and what is expected.
+    """
+    _check_results_dir(config)
+    check_references(config)
+    _check_case_collisions("surfaces", config["surfaces"])
+    _check_case_collisions("materials", config["materials"])
+    _check_solver_and_study(config)
+    _check_package_settings(config)
+    for name, spec in config["surfaces"].items():
+        surface_plan(name, spec, base_dir)
+
+
+# ---------------------------------------------------------------------------------------------
+# Per job of the plan
+# ---------------------------------------------------------------------------------------------
+def check_job(config: Mapping[str, Any], target: str, wildcards: Mapping[str, str]) -> None:
+    """Check the presets and labels named by the wildcards of one planned job.
+
+    Parameters
+    ----------
+    config : mapping
+        The validated config.
+    target : str
+        The job's output file (for the message).
+    wildcards : mapping
+        ``surface``, ``material``, ``mode``, ``accel`` as present.
+
+    Raises
+    ------
+    ConfigError
+        ``<target>: surface 'foo' is not a preset in surfaces (have: ...)`` and the like.
+    """
+    surfaces, materials = config["surfaces"], config["materials"]
+    surface = wildcards.get("surface")
+    if surface is not None and surface not in surfaces:
+        raise ConfigError(
+            f"{target}: surface {surface!r} is not a preset in surfaces; expected one of: {', '.join(sorted(surfaces))}"
+        )
+    material = wildcards.get("material")
+    if material is not None and material not in materials:
+        raise ConfigError(
+            f"{target}: material {material!r} is not a preset in materials; expected one of: "
+            f"{', '.join(sorted(materials))}"
+        )
+    mode, accel = wildcards.get("mode"), wildcards.get("accel")
+    loading = wildcards.get("loading")
+    if loading is not None and loading not in config.get("loadings", {}):
+        raise ConfigError(
+            f"{target}: loading {loading!r} is not a preset in loadings; expected one of: "
+            f"{', '.join(sorted(config.get('loadings', {}))) or '(none defined)'}"
+        )
+    if mode is not None and loading is None:
+        try:
+            a = float(accel)
+        except (TypeError, ValueError):
+            raise ConfigError(f"{target}: acceleration {accel!r} is not a number [m/s^2]") from None
+        if mode == "quasistatic" and accel != "0":
+            raise ConfigError(f"{target}: a quasi-static run has no acceleration; expected the file quasistatic_0.nc")
+        if mode == "dynamic" and (not math.isfinite(a) or a <= 0 or f"{a:g}" != accel):
+            raise ConfigError(
+                f"{target}: acceleration label {accel!r}; expected a positive acceleration [m/s^2] written as "
+                f"'{{:g}}' (e.g. dynamic_500.nc)"
+            )
+        if mode == "dynamic":
+            fs = float(config.get("greens", {}).get("sample_rate", 51200.0))
+            d_max = float(config.get("solver", {}).get("d_max", 2.5e-4))
+            if math.ceil(fs * math.sqrt(2.0 * d_max / a) * (1.0 - 1e-12)) < MIN_RUN_STEPS:
+                raise ConfigError(
+                    f"{target}: acceleration {a:g} m/s^2 reaches solver.d_max in fewer than {MIN_RUN_STEPS} time "
+                    f"steps at greens.sample_rate = {fs:g} Hz; expected at most "
+                    f"{2.0 * d_max * (fs / MIN_RUN_STEPS) ** 2:.4g} m/s^2"
+                )
+    if material is not None and mode is not None:
+        from .material import material_from_config
+
+        d_max = float(config.get("solver", {}).get("d_max", 2.5e-4))
+        h = material_from_config(material, materials).thickness
+        if d_max >= 0.5 * h:
+            raise ConfigError(
+                f"{target}: solver.d_max = {d_max:g} m is not less than half the tread thickness of material "
+                f"{material!r} ({0.5 * h:g} m)"
+            )
+    if surface is not None and mode is not None:
+        study_surface = config["study"]["surface"]
+        c_here = float(surfaces[surface].get("element_size", 1e-3))
+        c_greens = float(surfaces[study_surface].get("element_size", 1e-3))
+        if not math.isclose(c_here, c_greens, rel_tol=1e-9):
+            raise ConfigError(
+                f"{target}: surfaces.{surface}.element_size = {c_here:g} m differs from that of the study surface "
+                f"{study_surface!r} ({c_greens:g} m), for which the Green's functions are computed; expected equal "
+                f"element sizes"
+            )
+
+
+# ---------------------------------------------------------------------------------------------
+# Which code each stage runs
+# ---------------------------------------------------------------------------------------------
+#: Entry modules of each workflow stage (rule): the modules its ``tyreroad.pipeline.run_*``
+#: function imports. :func:`stage_modules` adds everything these import, recursively.
+#: A new stage, or a stage function that imports a new module, extends this map.
+STAGE_MODULES: dict[str, tuple[str, ...]] = {
+    "prepare_surface": ("log", "pipeline", "surface", "plots.surface"),
+    "element_springs": ("log", "pipeline", "springs"),
+    "springs_figure": ("log", "pipeline", "plots.springs"),
+    "greens": ("log", "pipeline", "greens", "material"),
+    "greens_figures": ("log", "pipeline", "plots.greens"),
+    "contact": ("log", "pipeline", "contact", "material"),
+    "study": ("log", "pipeline", "study"),
+    "study_figures": ("log", "pipeline", "plots.study", "study"),
+    "report": ("log", "pipeline", "report", "study", "hysteresis"),
+    "loading_run": ("log", "pipeline", "contact", "material", "loading", "hysteresis"),
+    "loading_study": ("log", "pipeline", "hysteresis"),
+    "hysteresis_figure": ("log", "pipeline", "plots.hysteresis"),
+    "sensitivity": ("log", "sensitivity"),
+}
+
+_PACKAGE_DIR = Path(__file__).resolve().parent
+#: Modules whose function-level imports are lazy dispatch, not code of every stage.
+_LAZY_DISPATCH = {"__init__", "pipeline"}
+
+
+def _module_file(module: str, package_dir: Path) -> Path | None:
+    base = package_dir.joinpath(*module.split("."))
+    for cand in (base.with_suffix(".py"), base / "__init__.py"):
+        if cand.is_file():
+            return cand
+    return None
+
+
+def _imports_of(module: str, package_dir: Path, top_level_only: bool) -> set[str]:
+    """tyreroad modules imported by ``module`` (relative to the package), read from its source."""
+    path = _module_file(module, package_dir)
+    return set(_imports_in_source(module, package_dir, path.stat().st_mtime_ns, top_level_only))
+
+
+@lru_cache(maxsize=256)
+def _imports_in_source(module: str, package_dir: Path, mtime_ns: int, top_level_only: bool) -> frozenset[str]:
+    path = _module_file(module, package_dir)
+    tree = ast.parse(path.read_text(), filename=str(path))
+    is_pkg = path.name == "__init__.py"
+    if module == "__init__":
+        parent: list[str] = []
+    else:
+        parent = module.split(".") if is_pkg else module.split(".")[:-1]
+    nodes = tree.body if top_level_only else list(ast.walk(tree))
+    found: set[str] = set()
+    for node in nodes:
+        if isinstance(node, ast.Import):
+            for alias in node.names:
+                if alias.name == "tyreroad" or alias.name.startswith("tyreroad."):
+                    found.add(alias.name[len("tyreroad."):] if "." in alias.name else "__init__")
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = parent[: len(parent) - (node.level - 1)] if node.level > 1 else parent
+                mod = ".".join(base + ([node.module] if node.module else []))
+            elif node.module and (node.module == "tyreroad" or node.module.startswith("tyreroad.")):
+                mod = node.module[len("tyreroad."):] if "." in node.module else ""
+            else:
+                continue
+            for alias in node.names:
+                sub = f"{mod}.{alias.name}" if mod else alias.name
+                if _module_file(sub, package_dir) is not None:
+                    found.add(sub)
+                elif mod:
+                    found.add(mod)
+                else:
+                    found.add("__init__")
+    return frozenset(found)
+
+
+def stage_modules(stage: str, package_dir: str | Path | None = None) -> list[str]:
+    """All tyreroad modules a stage runs: its entry modules and what they import, recursively.
+
+    Imports anywhere in a module count (also those inside functions), except for
+    ``tyreroad.pipeline`` and ``tyreroad/__init__.py``, whose functions import other modules
+    lazily on behalf of one stage or of a user: only their module-level imports count, the
+    per-stage ones are the entries of :data:`STAGE_MODULES`. Package ``__init__`` files on the way
+    are included (Python runs them on import).
+    """
+    package_dir = Path(package_dir) if package_dir is not None else _PACKAGE_DIR
+    if stage not in STAGE_MODULES:
+        raise KeyError(f"unknown stage {stage!r}; expected one of {sorted(STAGE_MODULES)}")
+    todo = ["__init__", *STAGE_MODULES[stage]]
+    seen: set[str] = set()
+    while todo:
+        mod = todo.pop()
+        if mod in seen:
+            continue
+        seen.add(mod)
+        parts = mod.split(".")
+        for k in range(1, len(parts)):
+            todo.append(".".join(parts[:k]))  # the subpackage's __init__
+        todo.extend(_imports_of(mod, package_dir, top_level_only=mod in _LAZY_DISPATCH) - seen)
+    return sorted(seen)
+
+
+def source_hash(stage: str, package_dir: str | Path | None = None) -> str:
+    """SHA-256 (first 16 hex digits) of the source of every tyreroad module the stage runs."""
+    package_dir = Path(package_dir) if package_dir is not None else _PACKAGE_DIR
+    digest = hashlib.sha256()
+    for mod in stage_modules(stage, package_dir):
+        path = _module_file(mod, package_dir)
+        digest.update(str(path.relative_to(package_dir)).encode() + b"\0")
+        digest.update(path.read_bytes() + b"\0")
+    return digest.hexdigest()[:16]

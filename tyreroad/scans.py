@@ -1,10 +1,17 @@
 """Reading measured road scans (SPEC section 3, generator ``file``).
 
 A scan is a 2-D grid of heights, indexed ``[x, y]``, with a uniform step in x and y. After reading,
-heights are converted to metres (config ``height_unit``), checked (no NaN or missing samples unless
-``fill_gaps: true``, a plausible height range, a plausible step), plane-detrended by least squares
-(``detrend: plane``), and finally resampled by bilinear interpolation onto the element grid of
+heights are converted to metres (config ``height_unit``; m, mm, um, nm or pm), optionally cropped
+to a window (``crop: {origin: [x0, y0], size: [sx, sy]}`` in m, before gap filling), checked (no
+NaN or missing samples unless ``fill_gaps: true``, a plausible step), plane-detrended by least
+squares (``detrend: plane``), checked for a plausible peak-to-valley height range
+(:data:`PV_RANGE`: a flat scan or heights in the wrong unit are errors that name the suspected
+unit), and finally resampled by bilinear interpolation onto the element grid of
 ``element_size / samples_per_element`` (see :func:`to_element_grid`).
+
+:func:`check_scan_header` is the cheap check of the planning step (``snakemake -n``): the file
+exists, is not empty, and its header (shape, step, unit) is readable and consistent with the
+preset, without reading the heights.
 
 Supported formats (``format``, or inferred from the file suffix):
 
@@ -13,9 +20,10 @@ Supported formats (``format``, or inferred from the file suffix):
 ``netcdf`` (``.nc``, ``.nc4``, ``.cdf``)
     The 2-D data variable named by ``variable`` (default: the only 2-D variable). The first
     dimension is x unless the dimensions are called ``x`` and ``y``. The step comes from 1-D
-    coordinates of the two dimensions (which must be uniform; their ``units`` attribute, else
-    ``lateral_unit``) or, without coordinates, from ``step``. If the variable has a ``units``
-    attribute, it must agree with ``height_unit``.
+    coordinates of the two dimensions (which must be uniform; their ``units`` attribute, or the
+    ``unit`` attribute SurfaceTopography writes, else ``lateral_unit``) or, without coordinates,
+    from ``step``. If the variable has a ``units`` (or ``unit``) attribute, it must agree with
+    ``height_unit``.
 ``text`` (``.csv``, ``.txt``, ``.asc``, ``.dat``)
     A plain grid: one line per y (first line y = 0), one column per x, delimiter detected
     (comma, semicolon, tab or white space), ``#`` starts a comment, an empty field is a missing
@@ -28,7 +36,8 @@ Supported formats (``format``, or inferred from the file suffix):
     at most once; grid nodes without a point are missing samples.
 ``instrument`` (``.x3p``, ``.sdf``, ``.sur``, ``.plu``, ``.datx``, ``.opd``, ``.al3d``, ...)
     Read through SurfaceTopography (optional extra ``tyreroad[scans]``); heights and sizes in the
-    file's own unit, converted to m.
+    file's own unit, converted to m. A file that states no unit needs ``height_unit`` and
+    ``lateral_unit`` in the preset; a unit tyreroad does not know is an error.
 """
 
 from __future__ import annotations
@@ -36,6 +45,7 @@ from __future__ import annotations
 import csv
 import logging
 import math
+import re
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
@@ -54,21 +64,27 @@ __all__ = [
     "scan_spec_from_config",
     "read_scan",
     "read_raw",
+    "check_scan_header",
+    "crop_window",
+    "largest_valid_window",
     "plane_detrend",
     "fill_gaps",
     "to_element_grid",
 ]
 
 #: Metres per unit for ``height_unit`` and ``lateral_unit``.
-UNIT_SCALE = {"m": 1.0, "mm": 1e-3, "um": 1e-6}
+UNIT_SCALE = {"m": 1.0, "mm": 1e-3, "um": 1e-6, "nm": 1e-9, "pm": 1e-12}
 _UNIT_ALIASES = {
     "m": "m", "meter": "m", "metre": "m", "meters": "m", "metres": "m",
     "mm": "mm", "millimeter": "mm", "millimetre": "mm", "millimeters": "mm", "millimetres": "mm",
     "um": "um", "µm": "um", "μm": "um", "micrometer": "um", "micrometre": "um", "micron": "um",
     "micrometers": "um", "micrometres": "um", "microns": "um",
+    "nm": "nm", "nanometer": "nm", "nanometre": "nm", "nanometers": "nm", "nanometres": "nm",
+    "pm": "pm", "picometer": "pm", "picometre": "pm", "picometers": "pm", "picometres": "pm",
 }
-#: Largest plausible |height - mean| of a road scan after unit conversion [m].
-MAX_ABS_HEIGHT = 0.1
+#: Plausible peak-to-valley range of the (detrended) heights of a road scan [m]: below 20 um the
+#: scan is flat or in too small a unit, above 50 mm it is in too large a unit (or not a road).
+PV_RANGE = (20e-6, 50e-3)
 #: Plausible range of the scan step after unit conversion [m].
 STEP_RANGE = (1e-7, 5e-3)
 #: Relative tolerance for a step to count as uniform / equal to another step.
@@ -84,6 +100,7 @@ FILE_KEYS: dict[str, Any] = {
     "variable": None,
     "fill_gaps": False,
     "detrend": "plane",
+    "crop": None,
 }
 
 _SUFFIX_FORMAT = {
@@ -122,6 +139,13 @@ class ScanSpec:
         Fill missing samples by linear interpolation (with a warning) instead of failing.
     detrend : str
         ``plane`` (least-squares plane removed) or ``none``.
+    crop : tuple or None
+        ``((x0, y0), (sx, sy))`` [m]: window of the scan kept before gap filling; the first kept
+        sample is the one nearest ``(x0, y0)`` from the scan's first sample, and the window holds
+        ``round(sx / dx) x round(sy / dy)`` samples. None: the whole scan.
+    units_given : bool
+        Whether ``height_unit``/``lateral_unit`` were set in the preset (used for instrument
+        files that state no unit).
     """
 
     path: Path
@@ -132,6 +156,8 @@ class ScanSpec:
     variable: str | None = None
     fill_gaps: bool = False
     detrend: str = "plane"
+    crop: tuple[tuple[float, float], tuple[float, float]] | None = None
+    units_given: bool = False
 
     def __post_init__(self) -> None:
         if self.format is not None and self.format not in ("npy", "netcdf", "text", "xyz", "instrument"):
@@ -146,6 +172,13 @@ class ScanSpec:
             raise ValueError(f"detrend must be 'plane' or 'none', got {self.detrend!r}")
         if not isinstance(self.fill_gaps, bool):
             raise ValueError(f"fill_gaps must be true or false, got {self.fill_gaps!r}")
+        if self.crop is not None:
+            (x0, y0), (sx, sy) = self.crop
+            if not (min(x0, y0) >= 0 and min(sx, sy) > 0 and all(map(math.isfinite, (x0, y0, sx, sy)))):
+                raise ValueError(
+                    f"crop must be {{origin: [x0, y0], size: [sx, sy]}} with origin >= 0 and size > 0 [m], "
+                    f"got origin {[x0, y0]}, size {[sx, sy]}"
+                )
 
 
 @dataclass(frozen=True)
@@ -179,7 +212,7 @@ def _unit(value: Any, where: str) -> str:
     key = str(value).strip()
     unit = _UNIT_ALIASES.get(key, _UNIT_ALIASES.get(key.lower()))
     if unit is None:
-        raise ScanError(f"{where}: unknown length unit {value!r} (expected m, mm or um)")
+        raise ScanError(f"{where}: unknown length unit {value!r} (expected one of {', '.join(UNIT_SCALE)})")
     return unit
 
 
@@ -216,9 +249,17 @@ def scan_spec_from_config(name: str, spec: Mapping, common_keys: Mapping = ()) -
             step = (float(step[0]), float(step[1]))
         else:
             raise ValueError(f"surfaces.{name}.step: expected a length in m or [dx, dy], got {step!r}")
-    kwargs = {k: spec.get(k, v) for k, v in FILE_KEYS.items() if k not in ("path", "step")}
+    crop = spec.get("crop")
+    if crop is not None:
+        ok = isinstance(crop, Mapping) and set(crop) == {"origin", "size"}
+        ok = ok and all(isinstance(crop[k], (list, tuple)) and len(crop[k]) == 2 for k in ("origin", "size"))
+        if not ok:
+            raise ValueError(f"surfaces.{name}.crop: expected {{origin: [x0, y0], size: [sx, sy]}} in m, got {crop!r}")
+        crop = (tuple(float(v) for v in crop["origin"]), tuple(float(v) for v in crop["size"]))
+    kwargs = {k: spec.get(k, v) for k, v in FILE_KEYS.items() if k not in ("path", "step", "crop")}
+    units_given = "height_unit" in spec or "lateral_unit" in spec
     try:
-        return ScanSpec(path=Path(path), step=step, **kwargs)
+        return ScanSpec(path=Path(path), step=step, crop=crop, units_given=units_given, **kwargs)
     except ValueError as exc:
         key = next((k for k in FILE_KEYS if str(exc).startswith(k)), None)
         raise ValueError(f"surfaces.{name}.{key or ''}: {exc}".replace(f"{name}.:", f"{name}:")) from None
@@ -227,15 +268,28 @@ def scan_spec_from_config(name: str, spec: Mapping, common_keys: Mapping = ()) -
 # ---------------------------------------------------------------------------------------------
 # Format readers: return (raw heights [x, y] in the file's height unit, step (dx, dy) in m or None)
 # ---------------------------------------------------------------------------------------------
+def _npy_header(path: Path) -> tuple[tuple[int, ...], np.dtype]:
+    """Shape and dtype from the header of a .npy file (the data are not read)."""
+    try:
+        with path.open("rb") as fh:
+            version = np.lib.format.read_magic(fh)
+            read = np.lib.format.read_array_header_1_0 if version == (1, 0) else np.lib.format.read_array_header_2_0
+            shape, _, dtype = read(fh)
+    except Exception as exc:  # ValueError for a bad magic string, EOFError/OSError for a short file
+        raise ScanError(f"{path}: not a readable .npy array ({type(exc).__name__}: {exc})") from None
+    if len(shape) != 2:
+        raise ScanError(f"{path}: expected a 2-D height array [x, y], got shape {shape}")
+    if dtype.kind not in "fiu":
+        raise ScanError(f"{path}: expected numeric heights, got dtype {dtype}")
+    return shape, dtype
+
+
 def _read_npy(path: Path, spec: ScanSpec):
+    _npy_header(path)
     try:
         arr = np.load(path, allow_pickle=False)
-    except ValueError as exc:
-        raise ScanError(f"{path}: not a plain .npy array ({exc})") from None
-    if arr.ndim != 2:
-        raise ScanError(f"{path}: expected a 2-D height array [x, y], got shape {arr.shape}")
-    if arr.dtype.kind not in "fiu":
-        raise ScanError(f"{path}: expected numeric heights, got dtype {arr.dtype}")
+    except Exception as exc:  # a truncated file
+        raise ScanError(f"{path}: not a readable .npy array ({type(exc).__name__}: {exc})") from None
     return arr.astype(float), None
 
 
@@ -253,7 +307,12 @@ def _uniform_step(coord: np.ndarray, path: Path, axis: str) -> float:
     return step
 
 
-def _read_netcdf(path: Path, spec: ScanSpec):
+def _attr_unit(attrs: Mapping) -> Any:
+    """The ``units`` attribute, or ``unit`` as SurfaceTopography writes it; None if neither."""
+    return attrs.get("units", attrs.get("unit"))
+
+
+def _read_netcdf(path: Path, spec: ScanSpec, header_only: bool = False):
     import xarray as xr
 
     try:
@@ -274,7 +333,7 @@ def _read_netcdf(path: Path, spec: ScanSpec):
             raise ScanError(f"{path}: variable {var.name!r} is not 2-D (dims {var.dims})")
         if set(var.dims) == {"x", "y"}:
             var = var.transpose("x", "y")
-        units = var.attrs.get("units")
+        units = _attr_unit(var.attrs)
         if units is not None:
             file_unit = _unit(units, f"{path}: variable {var.name!r} units")
             if file_unit != spec.height_unit:
@@ -286,13 +345,13 @@ def _read_netcdf(path: Path, spec: ScanSpec):
         for dim, axis in zip(var.dims, ("x", "y")):
             if dim in var.coords and var.coords[dim].ndim == 1:
                 coord = var.coords[dim]
-                cu = coord.attrs.get("units")
+                cu = _attr_unit(coord.attrs)
                 unit = _unit(cu, f"{path}: coordinate {dim!r} units") if cu else spec.lateral_unit
                 scale = UNIT_SCALE[unit]
                 steps.append(_uniform_step(coord.values, path, axis) * scale)
             else:
                 steps.append(None)
-        heights = np.asarray(var.values, dtype=float)
+        heights = tuple(var.shape) if header_only else np.asarray(var.values, dtype=float)
     if None in steps:
         if steps != [None, None]:
             raise ScanError(f"{path}: only one of the dimensions {var.dims} has a coordinate")
@@ -433,27 +492,53 @@ def _read_xyz(path: Path, spec: ScanSpec):
     return grid, steps
 
 
-def _read_instrument(path: Path, spec: ScanSpec):
+def _surface_topography():
     try:
-        from SurfaceTopography import read_topography
+        import SurfaceTopography
     except ImportError:
+        return None
+    return SurfaceTopography
+
+
+def _instrument_units(path: Path, unit: Any, spec: ScanSpec) -> tuple[float, float]:
+    """(height scale, lateral scale) in m per file unit for an instrument file stating ``unit``."""
+    if unit is None:
+        if not spec.units_given:
+            raise ScanError(
+                f"{path}: the file states no length unit; set height_unit and lateral_unit in the preset"
+            )
+        return UNIT_SCALE[spec.height_unit], UNIT_SCALE[spec.lateral_unit]
+    scale = UNIT_SCALE[_unit(unit, f"{path}: file unit")]
+    return scale, scale
+
+
+def _read_instrument(path: Path, spec: ScanSpec, header_only: bool = False):
+    st = _surface_topography()
+    if st is None:
         raise ImportError(
             f"{path}: instrument formats need SurfaceTopography; install it with: pip install \"tyreroad[scans]\""
-        ) from None
+        )
     try:
-        topo = read_topography(str(path))
+        reader = st.open_topography(str(path))
+        channel = reader.default_channel
+        nb, sizes, unit = channel.nb_grid_pts, channel.physical_sizes, channel.unit
+        topo = None if header_only else reader.topography()
     except Exception as exc:  # the readers raise many exception types
-        raise ScanError(f"{path}: SurfaceTopography could not read the file ({exc})") from None
-    if topo.dim != 2 or not topo.is_uniform:
-        raise ScanError(f"{path}: expected a uniform 2-D topography, got dim={topo.dim}, uniform={topo.is_uniform}")
-    unit = _unit(topo.unit, f"{path}: file unit")
+        raise ScanError(f"{path}: SurfaceTopography could not read the file ({type(exc).__name__}: {exc})") from None
+    if topo is not None:
+        nb, sizes, unit = topo.nb_grid_pts, topo.physical_sizes, topo.unit
+        if topo.dim != 2 or not topo.is_uniform:
+            raise ScanError(f"{path}: expected a uniform 2-D topography, got dim={topo.dim}, uniform={topo.is_uniform}")
+    if nb is None or len(nb) != 2 or sizes is None:
+        raise ScanError(f"{path}: expected a 2-D topography with physical sizes, got grid {nb}, sizes {sizes}")
+    h_scale, l_scale = _instrument_units(path, unit, spec)
+    (nx, ny), (sx, sy) = nb, sizes
+    step = (float(sx) / nx * l_scale, float(sy) / ny * l_scale)
+    if header_only:
+        return (int(nx), int(ny)), step
     h = np.ma.filled(np.ma.asarray(topo.heights(), dtype=float), np.nan)
-    nx, ny = topo.nb_grid_pts
-    sx, sy = topo.physical_sizes
-    scale = UNIT_SCALE[unit]
-    # The file states its unit for heights and lengths alike; express heights in height_unit.
-    h = h * scale / UNIT_SCALE[spec.height_unit]
-    return h, (sx / nx * scale, sy / ny * scale)
+    # read_scan multiplies by height_unit's scale; the file's own unit decides here.
+    return h * h_scale / UNIT_SCALE[spec.height_unit], step
 
 
 _READERS = {"npy": _read_npy, "netcdf": _read_netcdf, "text": _read_text, "xyz": _read_xyz,
@@ -471,6 +556,85 @@ def _format_of(path: Path, spec: ScanSpec) -> str:
     raise ScanError(f"{path}: cannot infer the scan format from the suffix {suffix!r}; set 'format'")
 
 
+def _resolve(spec: ScanSpec, base_dir: str | Path) -> tuple[Path, str]:
+    """The file's path (checked to exist and not to be empty) and its format."""
+    path = spec.path if spec.path.is_absolute() else Path(base_dir) / spec.path
+    if not path.is_file():
+        raise FileNotFoundError(f"{path}: scan file not found")
+    if path.stat().st_size == 0:
+        raise ScanError(f"{path}: the scan file is empty (0 bytes)")
+    return path, _format_of(path, spec)
+
+
+def _check_step(path: Path, step) -> None:
+    for s, axis in zip(step, "xy"):
+        if not STEP_RANGE[0] <= s <= STEP_RANGE[1]:
+            raise ScanError(
+                f"{path}: step {s:.6g} m along {axis} is implausible for a road scan "
+                f"(expected {STEP_RANGE[0]:g}..{STEP_RANGE[1]:g} m; wrong units?)"
+            )
+
+
+def check_scan_header(spec: ScanSpec, base_dir: str | Path = ".") -> dict[str, Any]:
+    """Cheap planning-time check of a scan file: exists, not empty, header readable and consistent.
+
+    Reads only the header where the format has one (npy, netCDF, instrument formats); for text
+    and xyz files it checks that the file is text with numeric data in its first lines.
+
+    Returns
+    -------
+    dict
+        ``path`` (resolved), ``format``, ``shape`` (samples in x and y, or None when only a full
+        read would tell), ``step`` ((dx, dy) [m], or None when unknown before a full read).
+
+    Raises
+    ------
+    FileNotFoundError, ScanError, ImportError
+        Naming the file.
+    """
+    path, fmt = _resolve(spec, base_dir)
+    shape = step = None
+    try:
+        if fmt == "npy":
+            shape = _npy_header(path)[0]
+        elif fmt == "netcdf":
+            shape, step = _read_netcdf(path, spec, header_only=True)
+        elif fmt == "instrument":
+            shape, step = _read_instrument(path, spec, header_only=True)
+        else:
+            with path.open("rb") as fh:
+                head = fh.read(65536)
+            try:
+                text = head.decode()
+            except UnicodeDecodeError as exc:
+                if exc.start < len(head) - 4:  # not just a multi-byte character cut at the end
+                    raise ScanError(f"{path}: not a text file") from None
+                text = head[: exc.start].decode()
+            lines = [ln.split("#", 1)[0].strip() for ln in text.splitlines()[:-1] or text.splitlines()]
+            rows = [ln for ln in lines if ln and ln.split()[0].lower() not in _ESRI_KEYS]
+            if not rows:
+                raise ScanError(f"{path}: no data rows")
+            fields = [f for f in re.split(r"[,;\s]+", rows[-1]) if f]
+            try:
+                [float(f) for f in fields]
+            except ValueError:
+                raise ScanError(f"{path}: line {rows[-1][:60]!r} is not numeric data") from None
+    except (ScanError, ImportError):
+        raise
+    except Exception as exc:
+        raise ScanError(f"{path}: cannot read as a {fmt} scan ({type(exc).__name__}: {exc})") from None
+    if step is None:
+        step = spec.step
+    if step is not None:
+        _check_step(path, step)
+    if shape is not None and min(shape) < 2:
+        raise ScanError(f"{path}: scan of shape {tuple(shape)} has fewer than two samples along an axis")
+    if shape is not None and step is not None and spec.crop is not None:
+        crop_window(shape, step, spec.crop, path)
+    return {"path": path, "format": fmt, "shape": None if shape is None else tuple(int(v) for v in shape),
+            "step": None if step is None else (float(step[0]), float(step[1]))}
+
+
 def read_raw(spec: ScanSpec, base_dir: str | Path = ".") -> tuple[Path, np.ndarray, tuple[float, float]]:
     """Read a scan file as it is: heights in the file's ``height_unit`` and the step in m.
 
@@ -483,29 +647,26 @@ def read_raw(spec: ScanSpec, base_dir: str | Path = ".") -> tuple[Path, np.ndarr
     step : tuple of float
         ``(dx, dy)`` [m].
     """
-    path = spec.path if spec.path.is_absolute() else Path(base_dir) / spec.path
-    if not path.is_file():
-        raise FileNotFoundError(f"{path}: scan file not found")
-    fmt = _format_of(path, spec)
+    path, fmt = _resolve(spec, base_dir)
     logger.info("reading %s scan %s", fmt, path)
-    height, step = _READERS[fmt](path, spec)
+    try:
+        height, step = _READERS[fmt](path, spec)
+    except (ScanError, ImportError):
+        raise
+    except Exception as exc:  # any other failure of a reader: name the file
+        raise ScanError(f"{path}: cannot read as a {fmt} scan ({type(exc).__name__}: {exc})") from None
     if step is None:
         if spec.step is None:
             raise ScanError(f"{path}: the {fmt} file does not carry the sample step; set 'step' [m] in the config")
         step = spec.step
-    for s, axis in zip(step, "xy"):
-        if not STEP_RANGE[0] <= s <= STEP_RANGE[1]:
-            raise ScanError(
-                f"{path}: step {s:.6g} m along {axis} is implausible for a road scan "
-                f"(expected {STEP_RANGE[0]:g}..{STEP_RANGE[1]:g} m; wrong units?)"
-            )
+    _check_step(path, step)
     if min(height.shape) < 2:
         raise ScanError(f"{path}: scan of shape {height.shape} has fewer than two samples along an axis")
     return path, height, (float(step[0]), float(step[1]))
 
 
 def read_scan(spec: ScanSpec, base_dir: str | Path = ".") -> Scan:
-    """Read, convert to m, check, optionally fill gaps, and detrend a scan.
+    """Read, convert to m, crop, check, optionally fill gaps, and detrend a scan.
 
     Parameters
     ----------
@@ -523,38 +684,162 @@ def read_scan(spec: ScanSpec, base_dir: str | Path = ".") -> Scan:
     FileNotFoundError
         The file does not exist (message names the path).
     ScanError
-        NaN or missing samples (without ``fill_gaps``), infinite values, non-uniform step,
-        implausible heights or step for the given units; the message names the file.
+        An empty or unreadable file, NaN or missing samples (without ``fill_gaps``; at the border
+        the message suggests the largest NaN-free crop window), infinite values, non-uniform
+        step, a crop window outside the scan, a flat scan or a height range implausible for a
+        road in the given unit (the message names the suspected unit); the message names the file.
     ImportError
         Instrument format without SurfaceTopography installed.
     """
     path, raw, step = read_raw(spec, base_dir)
     h = raw * UNIT_SCALE[spec.height_unit]
+    if spec.crop is not None:
+        (i0, j0), (ni, nj) = crop_window(h.shape, step, spec.crop, path)
+        logger.info("%s: cropped to samples [%d:%d, %d:%d] of %s", path, i0, i0 + ni, j0, j0 + nj, list(h.shape))
+        h = h[i0 : i0 + ni, j0 : j0 + nj]
     if np.any(np.isinf(h)):
         raise ScanError(f"{path}: {int(np.isinf(h).sum())} infinite height values")
     missing = np.isnan(h)
     n_missing = int(missing.sum())
     if n_missing == h.size:
         raise ScanError(f"{path}: all samples are missing")
-    mean = float(np.nanmean(h))
-    dev = float(np.nanmax(np.abs(h - mean)))
-    if dev > MAX_ABS_HEIGHT:
-        raise ScanError(
-            f"{path}: heights deviate up to {dev:.4g} m from their mean with height_unit "
-            f"{spec.height_unit!r}; implausible for a road (> {MAX_ABS_HEIGHT} m) - wrong units?"
-        )
     if n_missing:
         if not spec.fill_gaps:
             raise ScanError(
                 f"{path}: {n_missing} NaN or missing samples of {h.size}; set 'fill_gaps: true' to fill "
-                f"them by linear interpolation"
+                f"them by linear interpolation{_crop_hint(missing, step, spec)}"
             )
-        h = fill_gaps(h, path)
+        try:
+            h = fill_gaps(h, path)
+        except ScanError as exc:
+            raise ScanError(f"{exc}{_crop_hint(missing, step, spec)}") from None
         logger.warning("%s: filled %d missing samples (%.2f %%) by linear interpolation", path, n_missing,
                        100.0 * n_missing / h.size)
+    magnitude = float(np.max(np.abs(h)))
     if spec.detrend == "plane":
         h = plane_detrend(h)
+    _check_height_range(path, h, spec.height_unit, magnitude)
     return Scan(path=path, height=h, step=step, filled=n_missing)
+
+
+def _check_height_range(path: Path, h: np.ndarray, height_unit: str, magnitude: float = 0.0) -> None:
+    """Peak-to-valley range of the heights [m] against :data:`PV_RANGE`; names the suspected unit.
+
+    ``magnitude`` is the largest absolute height before detrending: a range within round-off of
+    it (1e-9 relative) means a flat (or exactly planar) scan.
+    """
+    pv = float(np.max(h) - np.min(h))
+    lo, hi = PV_RANGE
+    if pv <= 1e-9 * magnitude or pv == 0.0:
+        raise ScanError(
+            f"{path}: the scan is flat (all heights equal, or on one plane, to round-off); expected a road texture"
+        )
+    if lo <= pv <= hi:
+        return
+    declared = UNIT_SCALE[height_unit]
+    # the unit u that would bring the range closest to 1 mm (the middle of the plausible range, in log)
+    fits = {u: pv * scale / declared for u, scale in UNIT_SCALE.items() if u != height_unit}
+    fits = {u: v for u, v in fits.items() if lo <= v <= hi}
+    hint = ""
+    if fits:
+        best = min(fits, key=lambda u: abs(math.log10(fits[u] / 1e-3)))
+        hint = f"; the file's heights look like {best} (set height_unit: {best}, giving {fits[best] * 1e3:.3g} mm)"
+    raise ScanError(
+        f"{path}: heights span {pv:.3g} m peak to valley with height_unit {height_unit!r}; a road patch "
+        f"spans {lo * 1e6:g} um to {hi * 1e3:g} mm{hint}"
+    )
+
+
+def crop_window(shape, step, crop, path: str | Path = "scan") -> tuple[tuple[int, int], tuple[int, int]]:
+    """Sample window of a crop ``((x0, y0), (sx, sy))`` [m] in a scan of ``shape`` at ``step``.
+
+    The first kept sample is the one nearest ``(x0, y0)`` (measured from the scan's first
+    sample); the window holds ``round(sx / dx) x round(sy / dy)`` samples.
+
+    Returns
+    -------
+    (i0, j0), (ni, nj) : tuple of int
+        First sample and number of samples in x and y.
+
+    Raises
+    ------
+    ScanError
+        The window is empty or extends beyond the scan.
+    """
+    (x0, y0), (sx, sy) = crop
+    dx, dy = step
+    i0, j0 = int(round(x0 / dx)), int(round(y0 / dy))
+    ni, nj = int(round(sx / dx)), int(round(sy / dy))
+    nx, ny = int(shape[0]), int(shape[1])
+    if ni < 2 or nj < 2 or i0 + ni > nx or j0 + nj > ny:
+        raise ScanError(
+            f"{path}: crop window origin [{x0:g}, {y0:g}] m, size [{sx:g}, {sy:g}] m (samples [{i0}:{i0 + ni}, "
+            f"{j0}:{j0 + nj}]) does not lie inside the scan of {nx} x {ny} samples "
+            f"({nx * dx:.6g} x {ny * dy:.6g} m at step [{dx:.6g}, {dy:.6g}] m)"
+        )
+    return (i0, j0), (ni, nj)
+
+
+def largest_valid_window(valid: np.ndarray) -> tuple[tuple[int, int], tuple[int, int]]:
+    """Largest axis-parallel window (most samples) in which every sample is valid.
+
+    The maximal-rectangle algorithm on column histograms, O(nx ny). Grids above 4 million
+    samples are first reduced by blocks (a block is valid only if all its samples are), so the
+    window found is valid but may be a little smaller than the largest one.
+
+    Parameters
+    ----------
+    valid : numpy.ndarray of bool
+        ``[x, y]`` mask of valid samples.
+
+    Returns
+    -------
+    (i0, j0), (ni, nj) : tuple of int
+        First sample and size of the window (``(0, 0), (0, 0)`` if no sample is valid).
+    """
+    v = np.asarray(valid, dtype=bool)
+    b = max(1, math.ceil(math.sqrt(v.size / 4e6)))
+    if b > 1:
+        nx, ny = (v.shape[0] // b) * b, (v.shape[1] // b) * b
+        v = v[:nx, :ny].reshape(nx // b, b, ny // b, b).all(axis=(1, 3))
+    nx, ny = v.shape
+    height = np.zeros(ny + 1, dtype=np.int64)  # sentinel column of height 0
+    best = (0, 0, 0, 0, 0)  # area, i0, j0, ni, nj
+    for i in range(nx):
+        height[:ny] = np.where(v[i], height[:ny] + 1, 0)
+        stack: list[int] = []
+        hs = height.tolist()
+        for j in range(ny + 1):
+            start = j
+            while stack and hs[stack[-1]] >= hs[j]:
+                top = stack.pop()
+                width = j - (stack[-1] + 1 if stack else 0)
+                area = hs[top] * width
+                if area > best[0]:
+                    best = (area, i - hs[top] + 1, (stack[-1] + 1 if stack else 0), hs[top], width)
+                start = top
+            stack.append(j)
+    _, i0, j0, ni, nj = best
+    return (i0 * b, j0 * b), (ni * b, nj * b)
+
+
+def _crop_hint(missing: np.ndarray, step, spec: ScanSpec) -> str:
+    """Suggest the largest NaN-free crop window when missing samples touch the border."""
+    border = missing[0].any() or missing[-1].any() or missing[:, 0].any() or missing[:, -1].any()
+    if not border:
+        return ""
+    (i0, j0), (ni, nj) = largest_valid_window(~missing)
+    if ni < 2 or nj < 2:
+        return ""
+    off = (0, 0) if spec.crop is None else crop_window(
+        (10**12, 10**12), step, spec.crop)[0]  # offset of the current crop in the file
+    dx, dy = step
+    x0, y0 = (off[0] + i0) * dx, (off[1] + j0) * dy
+    return (
+        f". Missing samples lie on the scan border; the largest NaN-free window is "
+        f"crop: {{origin: [{x0:.6g}, {y0:.6g}], size: [{ni * dx:.6g}, {nj * dy:.6g}]}} "
+        f"({ni} x {nj} samples)"
+    )
 
 
 def plane_detrend(height: np.ndarray) -> np.ndarray:
@@ -634,6 +919,21 @@ def fill_gaps(height: np.ndarray, path: str | Path = "scan") -> np.ndarray:
     return h
 
 
+def element_grid_shape(shape, scan_step, step: float) -> tuple[int, int]:
+    """Samples of the element grid (step ``step``) that fit in a scan of ``shape`` at ``scan_step``.
+
+    An axis already at ``step`` keeps its samples; otherwise the grid ``k step`` from the first
+    sample is cut where it passes the last sample (``(n - 1) scan_step``).
+    """
+    out = []
+    for n, s in zip(shape, scan_step):
+        if abs(s - step) <= STEP_RTOL * step:
+            out.append(int(n))
+        else:
+            out.append(math.floor((n - 1) * s / step * (1 + 1e-12) + 1e-9) + 1)
+    return out[0], out[1]
+
+
 def to_element_grid(
     scan: Scan, step: float, patch_elements, samples_per_element: int
 ) -> np.ndarray:
@@ -671,15 +971,16 @@ def to_element_grid(
     n = int(samples_per_element)
     need = [int(p) * n for p in patch_elements]
     ext = scan.extent
-    size = [math.floor(e / step * (1 + 1e-12) + 1e-9) + 1 for e in ext]
+    size = list(element_grid_shape(scan.height.shape, scan.step, step))
     same = [abs(s - step) <= STEP_RTOL * step for s in scan.step]
-    size = [scan.height.shape[a] if same[a] else size[a] for a in range(2)]
     if size[0] < need[0] or size[1] < need[1]:
         raise ScanError(
-            f"{scan.path}: patch of {patch_elements[0]} x {patch_elements[1]} elements "
-            f"({need[0] * step * 1e3:.3f} x {need[1] * step * 1e3:.3f} mm) is larger than the scan "
-            f"({scan.height.shape[0]} x {scan.height.shape[1]} samples, "
-            f"{(ext[0] + scan.step[0]) * 1e3:.3f} x {(ext[1] + scan.step[1]) * 1e3:.3f} mm)"
+            f"{scan.path}: patch of {patch_elements[0]} x {patch_elements[1]} elements is larger than the scan: "
+            f"it needs {need[0]} x {need[1]} samples at the element grid step {step * 1e6:.4g} um, i.e. a scan "
+            f"spanning at least {(need[0] - 1) * step * 1e3:.4f} x {(need[1] - 1) * step * 1e3:.4f} mm from its "
+            f"first to its last sample; the scan ({scan.height.shape[0]} x {scan.height.shape[1]} samples at "
+            f"{scan.step[0] * 1e6:.4g} x {scan.step[1] * 1e6:.4g} um) spans {ext[0] * 1e3:.4f} x {ext[1] * 1e3:.4f} mm "
+            f"and gives {size[0]} x {size[1]} samples"
         )
     if all(same):
         return np.ascontiguousarray(scan.height)

@@ -267,11 +267,11 @@ def planned_points(config: Mapping[str, Any]) -> dict[str, dict[str, Any]]:
     return settings.points
 
 
-def point_files(points: Mapping[str, Any]) -> list[str]:
-    """Result files of the sweep points; a missing section is an error naming the key."""
+def point_files(points: Mapping[str, Any], results_dir: str = "results") -> list[str]:
+    """Result files of the sweep points under ``results_dir``; a missing section is an error naming the key."""
     if not points:
         raise ValueError("config has no 'sensitivity' section: the sensitivity target needs sensitivity.points")
-    return [f"results/sensitivity/{name}.nc" for name in points]
+    return [f"{results_dir}/sensitivity/{name}.nc" for name in points]
 
 
 def point_settings(sensitivity_cfg: Mapping[str, Any], name: str, point: Mapping[str, Any]) -> SensitivitySettings:

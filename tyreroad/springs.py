@@ -729,8 +729,7 @@ def element_springs(
     t0 = time.perf_counter()
 
     zeta = spring_model.zeta_grid()
-    samples = element_samples(height, n)
-    samples = samples.reshape(samples.shape[0], samples.shape[1], n * n)
+    samples = element_samples(height, n, flat=True)
     n_ex, n_ey = samples.shape[:2]
     depth = samples.max(axis=-1, keepdims=True) - samples
     counts = contact_counts(depth, zeta)

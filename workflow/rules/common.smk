@@ -1,22 +1,33 @@
-# Config validation (before any rule), wildcard constraints and small target helpers.
+# Config checks (before any rule), wildcard constraints and small target helpers.
+# Every check that needs no computed result runs here, at planning time (snakemake -n included):
+# tyreroad.config names the key path, the value and what is expected. See README "Configuration".
+from pathlib import Path
+
 from snakemake.utils import min_version, validate
 
 min_version("8.10")
 
+from tyreroad.config import (
+    STAGE_MODULES,
+    check_config,
+    check_config_files,
+    check_job,
+    source_hash,
+    validate_schema,
+)
 
-validate(config, "../schemas/config.schema.yaml")
-
-from tyreroad.config import check_references
-
-check_references(config)
+check_config_files(workflow.configfiles)  # duplicate keys are errors (YAML keeps the last silently)
+validate_schema(config, Path(workflow.current_basedir) / "../schemas/config.schema.yaml")
+validate(config, "../schemas/config.schema.yaml")  # inserts the schema's defaults
+check_config(config)
 
 
 wildcard_constraints:
-    surface=r"[A-Za-z0-9.\-]+",
-    material=r"[A-Za-z0-9.\-]+",
+    surface=r"[A-Za-z0-9][A-Za-z0-9.\-]*",
+    material=r"[A-Za-z0-9][A-Za-z0-9.\-]*",
     mode=r"dynamic|quasistatic",
     accel=r"[0-9][0-9.e+\-]*",
-    loading=r"[A-Za-z0-9.\-]+",
+    loading=r"[A-Za-z0-9][A-Za-z0-9.\-]*",
 
 
 # Cheap aggregation and plotting jobs run on the submitting host, never as cluster jobs.
@@ -31,8 +42,34 @@ localrules:
     hysteresis_figure,
 
 
+# Every result, log and benchmark of this study lives under R (config key results_dir).
+R = config["results_dir"]
 STUDY = config["study"]
 STUDY_SURFACE = STUDY["surface"]
+
+# Hash of the tyreroad source each stage runs (tyreroad.config.STAGE_MODULES): a rule's params
+# carry it, so a change in the package re-plans exactly the stages whose code changed.
+SOURCE = {stage: source_hash(stage) for stage in STAGE_MODULES}
+
+
+# The job output named in messages, by the set of wildcards of the rule.
+_TARGET_OF = {
+    ("surface",): f"{R}/surface/{{surface}}.nc",
+    ("material",): f"{R}/greens/{{material}}.nc",
+    ("material", "surface"): f"{R}/springs/{{surface}}/{{material}}.nc",
+    ("accel", "material", "mode", "surface"): f"{R}/contact/{{surface}}/{{material}}/{{mode}}_{{accel}}.nc",
+    ("loading", "material", "mode", "surface"): f"{R}/loading/{{surface}}/{{material}}/{{mode}}_{{loading}}.nc",
+}
+
+
+def checked(wildcards):
+    """Check the presets named by a job's wildcards (e.g. a requested target); see tyreroad.config.check_job.
+
+    Called from the params functions. They take the wildcards only: Snakemake does not record
+    (nor compare) params of functions that take input or output.
+    """
+    w = dict(wildcards)
+    check_job(config, _TARGET_OF[tuple(sorted(w))].format(**w), w)
 
 
 def fmt_accel(accel):
@@ -42,9 +79,9 @@ def fmt_accel(accel):
 
 def contact_runs(material):
     """Contact result files of one material: one quasi-static run (acceleration-free) and one per acceleration."""
-    runs = [f"results/contact/{STUDY_SURFACE}/{material}/quasistatic_0.nc"]
+    runs = [f"{R}/contact/{STUDY_SURFACE}/{material}/quasistatic_0.nc"]
     runs += [
-        f"results/contact/{STUDY_SURFACE}/{material}/dynamic_{fmt_accel(a)}.nc"
+        f"{R}/contact/{STUDY_SURFACE}/{material}/dynamic_{fmt_accel(a)}.nc"
         for a in STUDY["accelerations"]
     ]
     return runs
@@ -57,7 +94,7 @@ def all_contact_runs():
 def all_loading_runs():
     """Loading-preset runs of the study: every preset named in study.loadings, for its materials, both modes."""
     return [
-        f"results/loading/{STUDY_SURFACE}/{material}/{mode}_{loading}.nc"
+        f"{R}/loading/{STUDY_SURFACE}/{material}/{mode}_{loading}.nc"
         for loading, materials in STUDY.get("loadings", {}).items()
         for material in materials
         for mode in ("quasistatic", "dynamic")
@@ -68,11 +105,11 @@ def loading_outputs():
     """The loading study and its figure, when the study runs any loading presets."""
     if not all_loading_runs():
         return []
-    return ["results/loading.nc", "results/figures/fig10_hysteresis.png"]
+    return [f"{R}/loading.nc", f"{R}/figures/fig10_hysteresis.png"]
 
 
 def study_greens():
-    return [f"results/greens/{material}.nc" for material in STUDY["materials"]]
+    return [f"{R}/greens/{material}.nc" for material in STUDY["materials"]]
 
 
 def max_patch_elements():
@@ -85,17 +122,28 @@ def study_element_size():
     return config["surfaces"][STUDY_SURFACE]["element_size"]
 
 
+def surface_spec(wildcards):
+    checked(wildcards)
+    return config["surfaces"][wildcards.surface]
+
+
+def scan_files(wildcards):
+    """The scan file of a 'file' surface preset: an input, so a changed scan re-plans its surface."""
+    spec = config["surfaces"].get(wildcards.surface, {})
+    return [spec["path"]] if spec.get("generator") == "file" else []
+
+
 def all_targets():
     return [
-        f"results/surface/{STUDY_SURFACE}.nc",
-        f"results/figures/fig4_surface_{STUDY_SURFACE}.png",
-        f"results/figures/springs_{STUDY_SURFACE}.png",
-        "results/figures/fig2_material.png",
-        "results/figures/fig3_frf.png",
+        f"{R}/surface/{STUDY_SURFACE}.nc",
+        f"{R}/figures/fig4_surface_{STUDY_SURFACE}.png",
+        f"{R}/figures/springs_{STUDY_SURFACE}.png",
+        f"{R}/figures/fig2_material.png",
+        f"{R}/figures/fig3_frf.png",
         *all_contact_runs(),
-        "results/study.nc",
-        "results/report.md",
-        *[f"results/figures/{name}.png" for name in STUDY_FIGURES],
+        f"{R}/study.nc",
+        f"{R}/report.md",
+        *[f"{R}/figures/{name}.png" for name in STUDY_FIGURES],
         *loading_outputs(),
     ]
 
@@ -106,12 +154,25 @@ STUDY_FIGURES = ["fig5_force", "fig6_stiffness", "fig7_loss", "fig8_density"]
 # Material helpers come from the package so that the rules and the code resolve presets identically.
 from tyreroad.pipeline import material_variants as _material_variants
 from tyreroad.pipeline import resolved_material_config as _resolved_material_config
-from tyreroad.pipeline import spring_material_inputs
+from tyreroad.pipeline import spring_material_inputs as _spring_material_inputs
 
 
-def resolved_material(material):
+def resolved_material(wildcards):
     """The material preset with its `base:` resolved: a change in the base re-runs every variant."""
-    return _resolved_material_config(material, config["materials"])
+    checked(wildcards)
+    return _resolved_material_config(wildcards.material, config["materials"])
+
+
+def spring_material_inputs(wildcards):
+    """Only what the springs depend on, so that a density change does not re-run them."""
+    checked(wildcards)
+    return _spring_material_inputs(wildcards.material, config["materials"])
+
+
+def loading_spec(wildcards):
+    """The loading preset of a loading run (checked with the run's other presets)."""
+    checked(wildcards)
+    return config["loadings"][wildcards.loading]
 
 
 def material_variants():

@@ -1,17 +1,18 @@
 rule contact:
     input:
-        surface="results/surface/{surface}.nc",
-        springs="results/springs/{surface}/{material}.nc",
-        greens="results/greens/{material}.nc",
+        surface=f"{R}/surface/{{surface}}.nc",
+        springs=f"{R}/springs/{{surface}}/{{material}}.nc",
+        greens=f"{R}/greens/{{material}}.nc",
     output:
-        nc="results/contact/{surface}/{material}/{mode}_{accel}.nc",
+        nc=f"{R}/contact/{{surface}}/{{material}}/{{mode}}_{{accel}}.nc",
     log:
-        "results/logs/contact/{surface}/{material}/{mode}_{accel}.log",
+        f"{R}/logs/contact/{{surface}}/{{material}}/{{mode}}_{{accel}}.log",
     benchmark:
-        "results/benchmarks/contact/{surface}/{material}/{mode}_{accel}.tsv"
+        f"{R}/benchmarks/contact/{{surface}}/{{material}}/{{mode}}_{{accel}}.tsv"
     params:
-        material=lambda w: resolved_material(w.material),
+        material=resolved_material,
         solver=config["solver"],
+        code=SOURCE["contact"],
     threads: 1
     script:
         "../scripts/contact.py"

@@ -1,15 +1,16 @@
 rule greens:
     output:
-        nc="results/greens/{material}.nc",
+        nc=f"{R}/greens/{{material}}.nc",
     log:
-        "results/logs/greens/{material}.log",
+        f"{R}/logs/greens/{{material}}.log",
     benchmark:
-        "results/benchmarks/greens/{material}.tsv"
+        f"{R}/benchmarks/greens/{{material}}.tsv"
     params:
-        material=lambda w: resolved_material(w.material),
+        material=resolved_material,
         greens=config["greens"],
         n_elements=max_patch_elements(),
         element_size=study_element_size(),
+        code=SOURCE["greens"],
     threads: 1
     script:
         "../scripts/greens.py"
@@ -19,10 +20,12 @@ rule greens_figures:
     input:
         greens=study_greens(),
     output:
-        material="results/figures/fig2_material.png",
-        frf="results/figures/fig3_frf.png",
+        material=f"{R}/figures/fig2_material.png",
+        frf=f"{R}/figures/fig3_frf.png",
     log:
-        "results/logs/greens_figures.log",
+        f"{R}/logs/greens_figures.log",
+    params:
+        code=SOURCE["greens_figures"],
     threads: 1
     script:
         "../scripts/greens_figures.py"

@@ -1,18 +1,19 @@
 rule loading_run:
     input:
-        surface="results/surface/{surface}.nc",
-        springs="results/springs/{surface}/{material}.nc",
-        greens="results/greens/{material}.nc",
+        surface=f"{R}/surface/{{surface}}.nc",
+        springs=f"{R}/springs/{{surface}}/{{material}}.nc",
+        greens=f"{R}/greens/{{material}}.nc",
     output:
-        nc="results/loading/{surface}/{material}/{mode}_{loading}.nc",
+        nc=f"{R}/loading/{{surface}}/{{material}}/{{mode}}_{{loading}}.nc",
     log:
-        "results/logs/loading/{surface}/{material}/{mode}_{loading}.log",
+        f"{R}/logs/loading/{{surface}}/{{material}}/{{mode}}_{{loading}}.log",
     benchmark:
-        "results/benchmarks/loading/{surface}/{material}/{mode}_{loading}.tsv"
+        f"{R}/benchmarks/loading/{{surface}}/{{material}}/{{mode}}_{{loading}}.tsv"
     params:
-        material=lambda w: resolved_material(w.material),
-        loading=lambda w: config["loadings"][w.loading],
+        material=resolved_material,
+        loading=loading_spec,
         solver=config["solver"],
+        code=SOURCE["loading_run"],
     threads: 1
     script:
         "../scripts/loading_run.py"
@@ -22,9 +23,11 @@ rule loading_study:
     input:
         runs=all_loading_runs(),
     output:
-        nc="results/loading.nc",
+        nc=f"{R}/loading.nc",
     log:
-        "results/logs/loading_study.log",
+        f"{R}/logs/loading_study.log",
+    params:
+        code=SOURCE["loading_study"],
     threads: 1
     script:
         "../scripts/loading_study.py"
@@ -32,11 +35,13 @@ rule loading_study:
 
 rule hysteresis_figure:
     input:
-        loading="results/loading.nc",
+        loading=f"{R}/loading.nc",
     output:
-        png="results/figures/fig10_hysteresis.png",
+        png=f"{R}/figures/fig10_hysteresis.png",
     log:
-        "results/logs/hysteresis_figure.log",
+        f"{R}/logs/hysteresis_figure.log",
+    params:
+        code=SOURCE["hysteresis_figure"],
     threads: 1
     script:
         "../scripts/hysteresis_figure.py"

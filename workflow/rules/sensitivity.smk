@@ -1,6 +1,6 @@
 # Sensitivity sweep: what decides claims 5-7 (tyreroad.sensitivity). A named target, not part of
-# the default one:  snakemake -j2 sensitivity  ->  results/sensitivity.nc, results/sensitivity.md,
-# results/figures/sensitivity.png.  One job per sweep point (config: sensitivity.points).
+# the default one:  snakemake -j2 sensitivity  ->  {results_dir}/sensitivity.nc, sensitivity.md,
+# figures/sensitivity.png.  One job per sweep point (config: sensitivity.points).
 from tyreroad.sensitivity import planned_points as _planned_points
 from tyreroad.sensitivity import point_files as _point_files
 from tyreroad.sensitivity import point_surface_spec as _point_surface_spec
@@ -24,22 +24,23 @@ SENSITIVITY_GLOBALS = {k: v for k, v in config.get("sensitivity", {}).items() if
 
 rule sensitivity_point:
     output:
-        nc="results/sensitivity/{point}.nc",
+        nc=f"{R}/sensitivity/{{point}}.nc",
     log:
-        "results/logs/sensitivity/{point}.log",
+        f"{R}/logs/sensitivity/{{point}}.log",
     benchmark:
-        "results/benchmarks/sensitivity/{point}.tsv"
+        f"{R}/benchmarks/sensitivity/{{point}}.tsv"
     wildcard_constraints:
         point=r"[A-Za-z0-9.\-]+",
     params:
         point=lambda w: SENSITIVITY_POINTS[w.point],
         sensitivity=SENSITIVITY_GLOBALS,
-        reference_material=resolved_material(STUDY["reference_material"]),
+        reference_material=_resolved_material_config(STUDY["reference_material"], config["materials"]),
         surface=config["surfaces"][STUDY_SURFACE],
         springs=config["springs"],
         greens=config["greens"],
         solver=config["solver"],
         study=STUDY,
+        code=SOURCE["sensitivity"],
     threads: 1
     script:
         "../scripts/sensitivity_point.py"
@@ -47,13 +48,13 @@ rule sensitivity_point:
 
 rule sensitivity:
     input:
-        points=lambda w: _point_files(SENSITIVITY_POINTS),
+        points=lambda w: _point_files(SENSITIVITY_POINTS, R),
     output:
-        nc="results/sensitivity.nc",
-        png="results/figures/sensitivity.png",
-        md="results/sensitivity.md",
+        nc=f"{R}/sensitivity.nc",
+        png=f"{R}/figures/sensitivity.png",
+        md=f"{R}/sensitivity.md",
     log:
-        "results/logs/sensitivity.log",
+        f"{R}/logs/sensitivity.log",
     params:
         sensitivity=SENSITIVITY_GLOBALS,
     localrule: True

@@ -1,16 +1,17 @@
 rule element_springs:
     input:
-        surface="results/surface/{surface}.nc",
+        surface=f"{R}/surface/{{surface}}.nc",
     output:
-        nc="results/springs/{surface}/{material}.nc",
+        nc=f"{R}/springs/{{surface}}/{{material}}.nc",
     log:
-        "results/logs/element_springs/{surface}/{material}.log",
+        f"{R}/logs/element_springs/{{surface}}/{{material}}.log",
     benchmark:
-        "results/benchmarks/element_springs/{surface}/{material}.tsv"
+        f"{R}/benchmarks/element_springs/{{surface}}/{{material}}.tsv"
     params:
         # only what the springs depend on, so a density change does not re-run them
-        material=lambda w: spring_material_inputs(w.material, config["materials"]),
+        material=spring_material_inputs,
         springs=config["springs"],
+        code=SOURCE["element_springs"],
     threads: 1
     script:
         "../scripts/element_springs.py"
@@ -18,11 +19,13 @@ rule element_springs:
 
 rule springs_figure:
     input:
-        springs=f"results/springs/{{surface}}/{STUDY['reference_material']}.nc",
+        springs=f"{R}/springs/{{surface}}/{STUDY['reference_material']}.nc",
     output:
-        png="results/figures/springs_{surface}.png",
+        png=f"{R}/figures/springs_{{surface}}.png",
     log:
-        "results/logs/springs_figure/{surface}.log",
+        f"{R}/logs/springs_figure/{{surface}}.log",
+    params:
+        code=SOURCE["springs_figure"],
     threads: 1
     script:
         "../scripts/springs_figure.py"

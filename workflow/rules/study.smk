@@ -2,12 +2,13 @@ rule study:
     input:
         runs=all_contact_runs(),
     output:
-        nc="results/study.nc",
+        nc=f"{R}/study.nc",
     log:
-        "results/logs/study.log",
+        f"{R}/logs/study.log",
     params:
         study=STUDY,
         d_max=config["solver"]["d_max"],
+        code=SOURCE["study"],
     threads: 1
     script:
         "../scripts/study.py"
@@ -15,14 +16,15 @@ rule study:
 
 rule study_figures:
     input:
-        study="results/study.nc",
+        study=f"{R}/study.nc",
     output:
-        [f"results/figures/{name}.png" for name in STUDY_FIGURES],
+        [f"{R}/figures/{name}.png" for name in STUDY_FIGURES],
     log:
-        "results/logs/study_figures.log",
+        f"{R}/logs/study_figures.log",
     params:
         study=STUDY,
         variants=lambda w: material_variants(),
+        code=SOURCE["study_figures"],
     threads: 1
     script:
         "../scripts/study_figures.py"
@@ -30,17 +32,18 @@ rule study_figures:
 
 rule report:
     input:
-        study="results/study.nc",
-        surface=f"results/surface/{STUDY_SURFACE}.nc",
+        study=f"{R}/study.nc",
+        surface=f"{R}/surface/{STUDY_SURFACE}.nc",
         greens=study_greens(),
         loading=loading_outputs()[:1],
     output:
-        md="results/report.md",
+        md=f"{R}/report.md",
     log:
-        "results/logs/report.log",
+        f"{R}/logs/report.log",
     params:
         study=STUDY,
         variants=lambda w: material_variants(),
+        code=SOURCE["report"],
     threads: 1
     script:
         "../scripts/report.py"

@@ -1,13 +1,16 @@
 rule prepare_surface:
+    input:
+        scan=scan_files,
     output:
-        nc="results/surface/{surface}.nc",
-        png="results/figures/fig4_surface_{surface}.png",
+        nc=f"{R}/surface/{{surface}}.nc",
+        png=f"{R}/figures/fig4_surface_{{surface}}.png",
     log:
-        "results/logs/prepare_surface/{surface}.log",
+        f"{R}/logs/prepare_surface/{{surface}}.log",
     benchmark:
-        "results/benchmarks/prepare_surface/{surface}.tsv"
+        f"{R}/benchmarks/prepare_surface/{{surface}}.tsv"
     params:
-        spec=lambda w: config["surfaces"][w.surface],
+        spec=surface_spec,
+        code=SOURCE["prepare_surface"],
     threads: 1
     script:
         "../scripts/prepare_surface.py"
