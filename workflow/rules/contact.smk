@@ -13,5 +13,8 @@ rule contact:
         material=lambda w: resolved_material(w.material),
         solver=config["solver"],
     threads: 1
+    resources:  # cluster requests (tyreroad.cluster), from the patch size and run length
+        mem_mb=lambda w, attempt: cluster_resources("contact", config, w, attempt)["mem_mb"],
+        runtime=lambda w, attempt: cluster_resources("contact", config, w, attempt)["runtime"],
     script:
         "../scripts/contact.py"

@@ -12,6 +12,9 @@ rule element_springs:
         material=lambda w: spring_material_inputs(w.material, config["materials"]),
         springs=config["springs"],
     threads: 1
+    resources:  # cluster requests (tyreroad.cluster), from the patch size and run length
+        mem_mb=lambda w, attempt: cluster_resources("element_springs", config, w, attempt)["mem_mb"],
+        runtime=lambda w, attempt: cluster_resources("element_springs", config, w, attempt)["runtime"],
     script:
         "../scripts/element_springs.py"
 

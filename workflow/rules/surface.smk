@@ -9,5 +9,8 @@ rule prepare_surface:
     params:
         spec=lambda w: config["surfaces"][w.surface],
     threads: 1
+    resources:  # cluster requests (tyreroad.cluster), from the patch size and run length
+        mem_mb=lambda w, attempt: cluster_resources("prepare_surface", config, w, attempt)["mem_mb"],
+        runtime=lambda w, attempt: cluster_resources("prepare_surface", config, w, attempt)["runtime"],
     script:
         "../scripts/prepare_surface.py"

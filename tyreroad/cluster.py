@@ -1,0 +1,144 @@
+"""Memory and run-time requests of the workflow's cluster jobs, from the config.
+
+The rules' ``resources:`` call :func:`job_resources`; a SLURM run (``profiles/slurm``) turns them
+into ``sbatch --mem`` and ``--time``. The estimates scale with what drives the cost of each stage
+(patch size, scan samples, Green's-function lags, run length in steps) and are calibrated on the
+measured peaks (``results/benchmarks/`` of the paper's study, 20 x 20: 0.2-0.35 GB per job;
+``benchmarks/README.md``, 150 x 200: contact 1.7 GiB, Green's functions 1.6 GiB, surface + springs
+1.9 GiB), with head room: 1.5x on memory and 3x on run time, plus a fixed start-up allowance
+(interpreter, imports, a numba cache that may have to be compiled on the node). A retried job (Snakemake ``attempt`` 2, 3, ...) asks for
+``attempt`` times as much.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Mapping
+
+__all__ = ["CLUSTER_RULES", "job_resources", "run_steps"]
+
+#: Rules that run as cluster jobs (the others are ``localrules``).
+CLUSTER_RULES = ("prepare_surface", "element_springs", "greens", "contact")
+
+_BASE_MB = 350.0          # MB, interpreter, numpy/scipy/numba/xarray (measured 0.20-0.33 GB at 20 x 20)
+_STARTUP_MIN = 5.0        # min, interpreter start, imports, possibly a cold numba compile
+_FFT_ABOVE = 400          # elements; solver.method 'auto' switches to the FFT path above this
+_DEFAULT_FIELD = 0.1      # m, schema default of surfaces.*.field_size
+
+
+def run_steps(solver: Mapping[str, Any], sample_rate: float, mode: str, accel: float) -> int:
+    """Number of time steps of one contact run.
+
+    Parameters
+    ----------
+    solver : mapping
+        The ``solver`` config section (``d_max`` [m], ``quasistatic_step`` [m]).
+    sample_rate : float
+        Green's-function sample rate [Hz]: the time step of dynamic runs is its inverse.
+    mode : {'dynamic', 'quasistatic'}
+        Run mode.
+    accel : float
+        Indentation acceleration [m/s^2] (dynamic runs).
+
+    Returns
+    -------
+    int
+        Steps from first contact to ``d_max``: ``d_max / quasistatic_step + 1`` (quasi-static) or
+        ``sqrt(2 d_max / accel) * sample_rate + 2`` (dynamic, constant acceleration from rest).
+    """
+    d_max = float(solver["d_max"])
+    if mode == "quasistatic":
+        return int(math.ceil(d_max / float(solver["quasistatic_step"]))) + 1
+    if mode != "dynamic":
+        raise ValueError(f"mode: expected 'dynamic' or 'quasistatic', got {mode!r}")
+    if not float(accel) > 0:
+        raise ValueError(f"accel: expected a positive acceleration [m/s^2], got {accel!r}")
+    return int(math.ceil(math.sqrt(2.0 * d_max / float(accel)) * float(sample_rate))) + 2
+
+
+def _elements(config: Mapping[str, Any], surface: str) -> tuple[int, int]:
+    nx, ny = config["surfaces"][surface]["patch_elements"]
+    return int(nx), int(ny)
+
+
+def _greens_elements(config: Mapping[str, Any]) -> tuple[int, int]:
+    """The Green's tables cover the largest configured patch (see the workflow's max_patch_elements)."""
+    sizes = [_elements(config, name) for name in config["surfaces"]]
+    return max(s[0] for s in sizes), max(s[1] for s in sizes)
+
+
+def _kernel_mb(config: Mapping[str, Any]) -> float:
+    """Size of one time-domain kernel table g[dx, dy, lag] [MB]."""
+    nx, ny = _greens_elements(config)
+    return (2 * nx - 1) * (2 * ny - 1) * int(config["greens"]["n_lags"]) * 8 / 1e6
+
+
+def _field_mb(spec: Mapping[str, Any], patch_only: bool = False) -> float:
+    """Size of one height array of a surface's generated field (or of its patch) [MB]."""
+    nx, ny = spec["patch_elements"]
+    per_element = int(spec.get("samples_per_element", 26))
+    size = float(spec.get("element_size", 1.0e-3))
+    field = [0.0, 0.0] if patch_only else (spec.get("field_size") or [_DEFAULT_FIELD, _DEFAULT_FIELD])
+    samples = [max(n * per_element, math.ceil(f / size * per_element)) for n, f in zip((nx, ny), field)]
+    return samples[0] * samples[1] * 8 / 1e6
+
+
+def _uses_fft(solver: Mapping[str, Any], elements: int) -> bool:
+    method = solver.get("method", "auto")
+    return method == "fft" or (method == "auto" and elements > _FFT_ABOVE)
+
+
+def job_resources(rule: str, config: Mapping[str, Any], wildcards: Mapping[str, Any], attempt: int = 1) -> dict[str, int]:
+    """Memory and run time to request for one cluster job.
+
+    Parameters
+    ----------
+    rule : str
+        One of :data:`CLUSTER_RULES`.
+    config : mapping
+        The validated workflow config.
+    wildcards : mapping
+        The job's wildcards (``surface``; ``mode``, ``accel`` for ``contact``).
+    attempt : int
+        Snakemake's attempt counter (1 for the first submission).
+
+    Returns
+    -------
+    dict
+        ``mem_mb`` [MB] and ``runtime`` [min], both integers.
+    """
+    if rule not in CLUSTER_RULES:
+        raise ValueError(f"rule: expected one of {CLUSTER_RULES}, got {rule!r}")
+    attempt = max(1, int(attempt))
+    if rule == "prepare_surface":
+        field = _field_mb(config["surfaces"][wildcards["surface"]])
+        mem, seconds = _BASE_MB + 5 * field, 0.05 * field      # 8.5 s for a 180 MB field
+    elif rule == "element_springs":
+        spec = config["surfaces"][wildcards["surface"]]
+        nx, ny = _elements(config, wildcards["surface"])
+        springs = config["springs"]
+        tables = nx * ny * (int(float(springs["zeta_max"]) / float(springs["zeta_step"])) + 1) * 8 / 1e6
+        patch = _field_mb(spec, patch_only=True)
+        mem, seconds = _BASE_MB + 4 * tables + 4 * patch, 0.02 * (tables + patch)   # 7 s at 150 x 200
+    elif rule == "greens":
+        kernel = _kernel_mb(config)
+        n_fft_scale = int(config["greens"]["n_fft"]) / 4096
+        mem = _BASE_MB + 5 * kernel * max(1.0, n_fft_scale)
+        seconds = 0.2 * kernel * n_fft_scale + 10                  # 40 s for a 244 MB table
+    else:  # contact
+        nx, ny = _elements(config, wildcards["surface"])
+        m = nx * ny
+        solver = config["solver"]
+        steps = run_steps(solver, config["greens"]["sample_rate"], wildcards["mode"], float(wildcards["accel"]))
+        output = steps * m * 8 * 6 / 1e6          # per-step, per-element variables of the result
+        mem = _BASE_MB + 5 * _kernel_mb(config) + 3 * output
+        if _uses_fft(solver, m):
+            per_step = 8e-6 * m                   # s, single thread (108 ms/step at 30 000 elements, 2 threads)
+        else:
+            per_step = 1.2e-10 * m**3 + 1e-3      # s, dense elimination over the loaded elements
+            mem += 4 * m * m * 8 / 1e6            # dense Jacobian and its factors
+        seconds = steps * per_step
+    return {
+        "mem_mb": int(math.ceil(1.5 * mem * attempt / 100.0) * 100),
+        "runtime": int(math.ceil((_STARTUP_MIN + 3 * seconds / 60.0) * attempt)),
+    }
