@@ -43,17 +43,23 @@ def run_steps(solver: Mapping[str, Any], sample_rate: float, mode: str, accel: f
     Returns
     -------
     int
-        Steps from first contact to ``d_max``: ``d_max / quasistatic_step + 1`` (quasi-static) or
-        ``sqrt(2 d_max / accel) * sample_rate + 2`` (dynamic, constant acceleration from rest).
+        Steps from first contact to ``d_max``, both ends included: ``d_max / quasistatic_step + 1``
+        (quasi-static) or ``ceil(sqrt(2 d_max / accel) * sample_rate) + 1`` (dynamic, constant
+        acceleration from rest, time step ``1 / sample_rate``).
     """
     d_max = float(solver["d_max"])
     if mode == "quasistatic":
-        return int(math.ceil(d_max / float(solver["quasistatic_step"]))) + 1
+        return _ceil(d_max / float(solver["quasistatic_step"])) + 1
     if mode != "dynamic":
         raise ValueError(f"mode: expected 'dynamic' or 'quasistatic', got {mode!r}")
     if not float(accel) > 0:
         raise ValueError(f"accel: expected a positive acceleration [m/s^2], got {accel!r}")
-    return int(math.ceil(math.sqrt(2.0 * d_max / float(accel)) * float(sample_rate))) + 2
+    return _ceil(math.sqrt(2.0 * d_max / float(accel)) * float(sample_rate)) + 1
+
+
+def _ceil(x: float) -> int:
+    """Ceiling that ignores round-off above an integer (2.5e-4 / 1e-6 is 250.00000000000003)."""
+    return int(math.ceil(x - 1e-9 * max(1.0, abs(x))))
 
 
 def _elements(config: Mapping[str, Any], surface: str) -> tuple[int, int]:
