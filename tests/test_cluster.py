@@ -56,14 +56,14 @@ def _jobs(config):
 
 
 def test_paper_study_jobs_ask_for_well_under_a_gigabyte():
-    """20 x 20: the measured peaks are 0.20-0.35 GB per job, 2-12 s (issue 15: 16 GB was asked)."""
+    """20 x 20: a contact job peaked at 0.65 GB on the test cluster (0.27 GB the run itself), 2-12 s of work."""
     config = _config()
     for rule, wildcards in _jobs(config):
         res = job_resources(rule, config, wildcards)
-        assert 500 <= res["mem_mb"] <= 1000, (rule, res)
+        assert 700 <= res["mem_mb"] <= 1000, (rule, res)
         assert 5 <= res["runtime"] <= 10, (rule, res)
     contact = job_resources("contact", config, {"surface": "iso10844", "mode": "dynamic", "accel": "500"})
-    assert contact == {"mem_mb": 600, "runtime": 6}
+    assert contact == {"mem_mb": 800, "runtime": 6}
 
 
 def test_footprint_jobs_cover_the_measured_peaks():
@@ -73,8 +73,9 @@ def test_footprint_jobs_cover_the_measured_peaks():
         r_small, r_large = job_resources(rule, small, w_small), job_resources(rule, large, w_large)
         assert r_large["mem_mb"] > r_small["mem_mb"] and r_large["runtime"] >= r_small["runtime"], rule
     w = {"surface": "footprint", "mode": "dynamic", "accel": "500"}
-    assert 1.7 * 1024 * 1.2 <= job_resources("contact", large, w)["mem_mb"] <= 8000
-    assert 1.6 * 1024 * 1.2 <= job_resources("greens", large, {})["mem_mb"] <= 8000
+    # the stage's measured peak [MB] plus the job's two Snakemake processes (~400 MB)
+    assert 1.68 * 1024 + 400 <= job_resources("contact", large, w)["mem_mb"] <= 8000
+    assert 1.58 * 1024 + 400 <= job_resources("greens", large, {})["mem_mb"] <= 8000
 
 
 def test_longer_runs_ask_for_more():

@@ -86,7 +86,7 @@ def test_profile_plans_the_study(tmp_path):
 
 
 def test_profile_requests_follow_the_rules_and_the_site(tmp_path):
-    """Account and partition from the environment, CPUs = threads, 20 x 20 runs well under 1 GB."""
+    """Account and partition from the environment, CPUs = threads, 20 x 20 runs under 1 GB."""
     wd = _copy_workflow(tmp_path)
     env = _site_env(**{ACCOUNT_ENV: "acct1", PARTITION_ENV: "part2"})
     proc = _snakemake(wd, "--workflow-profile", "profiles/slurm", "-n", "--printshellcmds", env=env)
@@ -103,7 +103,7 @@ def test_profile_requests_follow_the_rules_and_the_site(tmp_path):
         assert res["cpus_per_task"] == "1", (rule, res)  # = threads of every rule (1)
         assert 1 <= int(res["runtime"]) <= 60, (rule, res)
     contact_mem = [int(res["mem_mb"]) for rule, res in cluster_jobs if rule == "contact"]
-    assert max(contact_mem) <= 700  # MB: a 20 x 20 run peaks at ~0.27 GB
+    assert max(contact_mem) <= 800  # MB: a 20 x 20 contact job peaks at ~0.65 GB (its run at ~0.27 GB)
 
 
 def test_profile_without_partition_leaves_it_to_the_cluster(tmp_path):

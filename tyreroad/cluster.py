@@ -3,10 +3,13 @@
 The rules' ``resources:`` call :func:`job_resources`; a SLURM run (``profiles/slurm``) turns them
 into ``sbatch --mem`` and ``--time``. The estimates scale with what drives the cost of each stage
 (patch size, scan samples, Green's-function lags, run length in steps) and are calibrated on the
-measured peaks (``results/benchmarks/`` of the paper's study, 20 x 20: 0.2-0.35 GB per job;
-``benchmarks/README.md``, 150 x 200: contact 1.7 GiB, Green's functions 1.6 GiB, surface + springs
-1.9 GiB), with head room: 1.5x on memory and 3x on run time, plus a fixed start-up allowance
-(interpreter, imports, a numba cache that may have to be compiled on the node). A retried job (Snakemake ``attempt`` 2, 3, ...) asks for
+measured peaks of the stage's own process (``results/benchmarks/`` of the paper's study, 20 x 20:
+0.20-0.33 GB; ``benchmarks/README.md``, 150 x 200: contact 1.7 GiB, Green's functions 1.6 GiB,
+surface + springs 1.9 GiB), with head room: 1.25x on memory and 3x on run time. On top come the
+two Snakemake processes of every SLURM job (the batch step and the job step that runs the rule:
+~0.2 GB each, measured with sacct on the test cluster, where a 20 x 20 contact job peaked at
+0.19 + 0.45 GB) and a fixed start-up time (interpreter, imports, a numba cache that may have to
+be compiled on the node). A retried job (Snakemake ``attempt`` 2, 3, ...) asks for
 ``attempt`` times as much.
 """
 
@@ -20,7 +23,8 @@ __all__ = ["CLUSTER_RULES", "job_resources", "run_steps"]
 #: Rules that run as cluster jobs (the others are ``localrules``).
 CLUSTER_RULES = ("prepare_surface", "element_springs", "greens", "contact")
 
-_BASE_MB = 350.0          # MB, interpreter, numpy/scipy/numba/xarray (measured 0.20-0.33 GB at 20 x 20)
+_BASE_MB = 280.0          # MB, a stage's process: interpreter, numpy/scipy/numba/xarray, small arrays
+_SNAKEMAKE_MB = 400.0     # MB, the job's two Snakemake processes (batch step, job step)
 _STARTUP_MIN = 5.0        # min, interpreter start, imports, possibly a cold numba compile
 _FFT_ABOVE = 400          # elements; solver.method 'auto' switches to the FFT path above this
 _DEFAULT_FIELD = 0.1      # m, schema default of surfaces.*.field_size
@@ -118,7 +122,7 @@ def job_resources(rule: str, config: Mapping[str, Any], wildcards: Mapping[str, 
     attempt = max(1, int(attempt))
     if rule == "prepare_surface":
         field = _field_mb(config["surfaces"][wildcards["surface"]])
-        mem, seconds = _BASE_MB + 5 * field, 0.05 * field      # 8.5 s for a 180 MB field
+        mem, seconds = _BASE_MB + 3 * field, 0.05 * field      # 8.5 s for a 180 MB field
     elif rule == "element_springs":
         spec = config["surfaces"][wildcards["surface"]]
         nx, ny = _elements(config, wildcards["surface"])
@@ -145,6 +149,6 @@ def job_resources(rule: str, config: Mapping[str, Any], wildcards: Mapping[str, 
             mem += 4 * m * m * 8 / 1e6            # dense Jacobian and its factors
         seconds = steps * per_step
     return {
-        "mem_mb": int(math.ceil(1.5 * mem * attempt / 100.0) * 100),
+        "mem_mb": int(math.ceil((_SNAKEMAKE_MB + 1.25 * mem) * attempt / 100.0) * 100),
         "runtime": int(math.ceil((_STARTUP_MIN + 3 * seconds / 60.0) * attempt)),
     }
