@@ -4,8 +4,9 @@ The rules' ``resources:`` call :func:`job_resources`; a SLURM run (``profiles/sl
 into ``sbatch --mem`` and ``--time``. The estimates scale with what drives the cost of each stage
 (patch size, scan samples, Green's-function lags, run length in steps) and are calibrated on the
 measured peaks of the stage's own process (``results/benchmarks/`` of the paper's study, 20 x 20:
-0.20-0.33 GB; ``benchmarks/README.md``, 150 x 200: contact 1.7 GiB, Green's functions 1.6 GiB,
-surface + springs 1.9 GiB), with head room: 1.25x on memory and 3x on run time. On top come the
+0.20-0.33 GB; jobs of ``config/footprint.yaml`` on the test cluster of tests/slurm, 150 x 200:
+surface 2.4 GB, springs 1.4 GB, Green's functions 1.6 GB, contact 1.6-1.8 GB), with head room:
+1.25x on memory and 3x on run time. On top come the
 two Snakemake processes of every SLURM job (the batch step and the job step that runs the rule:
 ~0.2 GB each, measured with sacct on the test cluster, where a 20 x 20 contact job peaked at
 0.19 + 0.45 GB) and a fixed start-up time (interpreter, imports, a numba cache that may have to
@@ -122,19 +123,22 @@ def job_resources(rule: str, config: Mapping[str, Any], wildcards: Mapping[str, 
     attempt = max(1, int(attempt))
     if rule == "prepare_surface":
         field = _field_mb(config["surfaces"][wildcards["surface"]])
-        mem, seconds = _BASE_MB + 3 * field, 0.05 * field      # 8.5 s for a 180 MB field
+        # 150 x 200 on the test cluster: 2.4 GB and 49 s for a 182 MB field (20 x 20: 0.2 GB, 54 MB)
+        mem, seconds = _BASE_MB + 12 * field, 0.3 * field
     elif rule == "element_springs":
         spec = config["surfaces"][wildcards["surface"]]
         nx, ny = _elements(config, wildcards["surface"])
         springs = config["springs"]
         tables = nx * ny * (int(float(springs["zeta_max"]) / float(springs["zeta_step"])) + 1) * 8 / 1e6
         patch = _field_mb(spec, patch_only=True)
-        mem, seconds = _BASE_MB + 4 * tables + 4 * patch, 0.02 * (tables + patch)   # 7 s at 150 x 200
+        # 150 x 200 on the test cluster: 1.4 GB and 34 s (240 MB of tables)
+        mem, seconds = _BASE_MB + 4 * tables + 4 * patch, 0.15 * (tables + patch)
     elif rule == "greens":
         kernel = _kernel_mb(config)
         n_fft_scale = int(config["greens"]["n_fft"]) / 4096
-        mem = _BASE_MB + 5 * kernel * max(1.0, n_fft_scale)
-        seconds = 0.2 * kernel * n_fft_scale + 10                  # 40 s for a 244 MB table
+        # 150 x 200 on the test cluster: 1.6 GB and 111 s for a 244 MB table
+        mem = _BASE_MB + 6 * kernel * max(1.0, n_fft_scale)
+        seconds = 0.5 * kernel * n_fft_scale + 10
     else:  # contact
         nx, ny = _elements(config, wildcards["surface"])
         m = nx * ny
@@ -143,7 +147,7 @@ def job_resources(rule: str, config: Mapping[str, Any], wildcards: Mapping[str, 
         output = steps * m * 8 * 6 / 1e6          # per-step, per-element variables of the result
         mem = _BASE_MB + 5 * _kernel_mb(config) + 3 * output
         if _uses_fft(solver, m):
-            per_step = 8e-6 * m                   # s, single thread (108 ms/step at 30 000 elements, 2 threads)
+            per_step = 2e-5 * m                   # s; 150 x 200, 1 thread, test cluster: 0.55 s (dynamic), 0.23 s (QS)
         else:
             per_step = 1.2e-10 * m**3 + 1e-3      # s, dense elimination over the loaded elements
             mem += 4 * m * m * 8 / 1e6            # dense Jacobian and its factors
