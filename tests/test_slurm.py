@@ -10,6 +10,7 @@ when they are missing). If the cluster cannot start, the test fails with the rea
 skipped. Both runs happen in temporary copies of the workflow, never in the repository's results/.
 """
 
+import contextlib
 import csv
 import io as _io
 import os
@@ -129,10 +130,13 @@ def test_profile_without_account_is_a_clear_error(tmp_path):
 # --- the profile on a real cluster --------------------------------------------------------------
 
 
-@pytest.fixture(scope="module")
-def slurm_cluster(tmp_path_factory):
-    """A running single-node cluster: its environment (SLURM_CONF, account, partition) as a dict."""
-    state = tmp_path_factory.mktemp("slurm")
+@contextlib.contextmanager
+def _slurm_cluster(state):
+    """Start a single-node cluster in `state`, yield its environment (SLURM_CONF, account, ...), stop it.
+
+    A cluster that cannot start fails the test with the script's reason and log tails; whatever
+    happens in the test, the daemons the script started are stopped and checked gone by PID.
+    """
     try:
         proc = subprocess.run(
             ["bash", str(CLUSTER_SCRIPT), "start", str(state)], capture_output=True, text=True, timeout=900
@@ -143,6 +147,7 @@ def slurm_cluster(tmp_path_factory):
     if proc.returncode != 0:
         pytest.fail(f"the SLURM cluster could not start (tests/slurm/cluster.sh start):\n{proc.stderr[-6000:]}")
     pids = {p.stem: int(p.read_text()) for p in (state / "pids").glob("*.pid")}
+    assert set(pids) == {"munged", "mariadbd", "slurmdbd", "slurmctld", "slurmd"}, pids
     env = dict(line.split("=", 1) for line in proc.stdout.split() if "=" in line)
     try:
         yield env
@@ -185,8 +190,13 @@ def _nc_files(results):
 
 
 @pytest.mark.slurm
-def test_study_through_slurm_equals_local_run(slurm_cluster, tmp_path):
+def test_study_through_slurm_equals_local_run(tmp_path):
     """Every cluster job goes through sbatch and completes; every netCDF result equals the local run's."""
+    with _slurm_cluster(tmp_path / "slurm") as slurm_cluster:
+        _check_study_through_slurm(slurm_cluster, tmp_path)
+
+
+def _check_study_through_slurm(slurm_cluster, tmp_path):
     local = _copy_workflow(tmp_path / "local")
     proc = _snakemake(local, "-j2", *CONFIGS, timeout=900)
     assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-6000:]

@@ -51,7 +51,7 @@ install_packages() {
 }
 
 free_ports() {  # N free TCP ports on 127.0.0.1
-    python3 - "$1" <<'EOF'
+    "$(command -v python3 || command -v python)" - "$1" <<'EOF'
 import socket, sys
 socks = [socket.socket() for _ in range(int(sys.argv[1]))]
 for s in socks:
@@ -124,7 +124,7 @@ start() {
     trap 'rc=$?; if [ $rc != 0 ]; then log_tails; stop_daemons; fi' EXIT
 
     local host user ports ctld_port slurmd_port dbd_port db_port cpus mem_mb db_pass
-    host=$(hostname -s)
+    host=$(uname -n); host=${host%%.*}
     user=$(id -un)
     read -r ctld_port slurmd_port dbd_port db_port <<< "$(free_ports 4)"
     cpus=$(nproc)
