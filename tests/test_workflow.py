@@ -219,19 +219,3 @@ def test_lint_reports_only_the_conda_note():
     lints = {line.strip() for line in (proc.stdout + proc.stderr).splitlines() if line.strip().startswith("* ")}
     assert lints == {"* Specify a conda environment or container for each rule.:"}, lints
 
-
-def test_slurm_profile_plans_the_study(tmp_path):
-    """The cluster profile (issue 7) is a valid workflow profile: a dry run plans every job."""
-    for item in ("Snakefile", "workflow", "config", "profiles"):
-        src = ROOT / item
-        (shutil.copytree if src.is_dir() else shutil.copy)(src, tmp_path / item)
-    proc = subprocess.run(
-        [sys.executable, "-m", "snakemake", "--workflow-profile", "profiles/slurm", "-n"],
-        cwd=tmp_path,
-        capture_output=True,
-        text=True,
-    )
-    out = proc.stdout + proc.stderr
-    assert proc.returncode == 0, out[-3000:]
-    totals = [line.split() for line in out.splitlines() if line.startswith("total")]
-    assert totals and int(totals[0][1]) == 37, out[-3000:]  # 5 materials x (3 + 1) runs + 17 other jobs

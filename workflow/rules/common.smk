@@ -155,6 +155,7 @@ STUDY_FIGURES = ["fig5_force", "fig6_stiffness", "fig7_loss", "fig8_density"]
 from tyreroad.pipeline import material_variants as _material_variants
 from tyreroad.pipeline import resolved_material_config as _resolved_material_config
 from tyreroad.pipeline import spring_material_inputs as _spring_material_inputs
+from tyreroad.cluster import job_resources as cluster_resources
 
 
 def resolved_material(wildcards):

@@ -14,5 +14,8 @@ rule contact:
         solver=config["solver"],
         code=SOURCE["contact"],
     threads: 1
+    resources:  # cluster requests (tyreroad.cluster), from the patch size and run length
+        mem_mb=lambda w, attempt: cluster_resources("contact", config, w, attempt)["mem_mb"],
+        runtime=lambda w, attempt: cluster_resources("contact", config, w, attempt)["runtime"],
     script:
         "../scripts/contact.py"

@@ -12,6 +12,9 @@ rule greens:
         element_size=study_element_size(),
         code=SOURCE["greens"],
     threads: 1
+    resources:  # cluster requests (tyreroad.cluster), from the patch size and run length
+        mem_mb=lambda w, attempt: cluster_resources("greens", config, w, attempt)["mem_mb"],
+        runtime=lambda w, attempt: cluster_resources("greens", config, w, attempt)["runtime"],
     script:
         "../scripts/greens.py"
 

@@ -15,6 +15,9 @@ rule loading_run:
         solver=config["solver"],
         code=SOURCE["loading_run"],
     threads: 1
+    resources:  # cluster requests (tyreroad.cluster), from the patch size and the path's length
+        mem_mb=lambda w, attempt: cluster_resources("loading_run", config, w, attempt)["mem_mb"],
+        runtime=lambda w, attempt: cluster_resources("loading_run", config, w, attempt)["runtime"],
     script:
         "../scripts/loading_run.py"
 

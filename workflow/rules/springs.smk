@@ -13,6 +13,9 @@ rule element_springs:
         springs=config["springs"],
         code=SOURCE["element_springs"],
     threads: 1
+    resources:  # cluster requests (tyreroad.cluster), from the patch size and run length
+        mem_mb=lambda w, attempt: cluster_resources("element_springs", config, w, attempt)["mem_mb"],
+        runtime=lambda w, attempt: cluster_resources("element_springs", config, w, attempt)["runtime"],
     script:
         "../scripts/element_springs.py"
 

@@ -12,5 +12,8 @@ rule prepare_surface:
         spec=surface_spec,
         code=SOURCE["prepare_surface"],
     threads: 1
+    resources:  # cluster requests (tyreroad.cluster), from the patch size and run length
+        mem_mb=lambda w, attempt: cluster_resources("prepare_surface", config, w, attempt)["mem_mb"],
+        runtime=lambda w, attempt: cluster_resources("prepare_surface", config, w, attempt)["runtime"],
     script:
         "../scripts/prepare_surface.py"
