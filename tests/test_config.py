@@ -129,7 +129,7 @@ def test_schema_error_is_one_paragraph_with_the_key_path(config):
     with pytest.raises(ConfigError) as err:
         C.validate_schema(cfg, SCHEMA)
     msg = str(err.value)
-    assert msg.startswith("solver.tolerence: unknown key; did you mean 'tolerance'? expected one of: d_max, max_iterations")
+    assert msg.startswith("solver.tolerence: unknown key; did you mean 'tolerance'? expected one of: d_max, long_memory, max_iterations")
     assert "\n" not in msg and len(msg) < 300
     cfg = copy.deepcopy(config)
     cfg["surfaces"]["iso10844"]["element_size"] = -1e-3
