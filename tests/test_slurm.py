@@ -83,7 +83,8 @@ def test_profile_plans_the_study(tmp_path):
     out = proc.stdout + proc.stderr
     assert proc.returncode == 0, out[-3000:]
     totals = [line.split() for line in out.splitlines() if line.startswith("total")]
-    assert totals and int(totals[0][1]) == 37, out[-3000:]  # 5 materials x (3 + 1) runs + 17 other jobs
+    # 5 materials x (3 + 1) runs, 5 materials x 2 cycle runs + 19 other jobs
+    assert totals and int(totals[0][1]) == 49, out[-3000:]
 
 
 def test_profile_requests_follow_the_rules_and_the_site(tmp_path):
@@ -96,15 +97,15 @@ def test_profile_requests_follow_the_rules_and_the_site(tmp_path):
     jobs = _planned_jobs(out)
     cluster_jobs = [(rule, res) for rule, res in jobs if rule in CLUSTER_RULES]
     assert Counter(rule for rule, _ in cluster_jobs) == {
-        "prepare_surface": 1, "element_springs": 5, "greens": 5, "contact": 20,
+        "prepare_surface": 1, "element_springs": 5, "greens": 5, "contact": 20, "loading_run": 10,
     }
     for rule, res in cluster_jobs:
         # every other resource of the profile survives the site settings
         assert res["slurm_account"] == "acct1" and res["slurm_partition"] == "part2", (rule, res)
         assert res["cpus_per_task"] == "1", (rule, res)  # = threads of every rule (1)
         assert 1 <= int(res["runtime"]) <= 60, (rule, res)
-    contact_mem = [int(res["mem_mb"]) for rule, res in cluster_jobs if rule == "contact"]
-    assert max(contact_mem) <= 800  # MB: a 20 x 20 contact job peaks at ~0.65 GB (its run at ~0.27 GB)
+    contact_mem = [int(res["mem_mb"]) for rule, res in cluster_jobs if rule in ("contact", "loading_run")]
+    assert max(contact_mem) <= 1000  # MB: a 20 x 20 contact job peaks at ~0.65 GB (its run at ~0.27 GB)
 
 
 def test_profile_without_partition_leaves_it_to_the_cluster(tmp_path):

@@ -103,9 +103,18 @@ def test_full_tiny_study_produces_every_output(workdir):
         "figures/fig6_stiffness.png",
         "figures/fig7_loss.png",
         "figures/fig8_density.png",
+        "loading/iso10844/tread/quasistatic_cycle.nc",
+        "loading/iso10844/tread/dynamic_cycle.nc",
+        "loading.nc",
+        "figures/fig10_hysteresis.png",
     ]
     missing = [p for p in expected if not (results / p).is_file()]
     assert not missing
+    loading = io.read_dataset(results / "loading.nc")
+    w = dict(zip(loading["mode"].values.astype(str), loading["dissipated_energy"].values))
+    work = dict(zip(loading["mode"].values.astype(str), loading["loading_work"].values))
+    assert w["dynamic"] > 0.05 * work["dynamic"] and abs(w["quasistatic"]) <= 1e-6 * work["quasistatic"]
+    assert "## Load-unload cycles: hysteresis" in (results / "report.md").read_text()
 
 
 @pytest.mark.slow
@@ -181,6 +190,9 @@ def test_changed_package_line_replans_exactly_the_stages_that_run_it(workdir, pa
         f"{RESULTS}/study.nc", f"{RESULTS}/report.md",
         f"{RESULTS}/figures/fig2_material.png", f"{RESULTS}/figures/fig3_frf.png",
         *(f"{RESULTS}/figures/{n}.png" for n in ("fig5_force", "fig6_stiffness", "fig7_loss", "fig8_density")),
+        # the test study's load-unload cycle of tread reads the greens file too
+        *(f"{RESULTS}/loading/iso10844/tread/{mode}_cycle.nc" for mode in ("quasistatic", "dynamic")),
+        f"{RESULTS}/loading.nc", f"{RESULTS}/figures/fig10_hysteresis.png",
     }
     assert planned == expected, planned ^ expected
     assert not any("/surface/" in p or "/springs/" in p for p in planned)

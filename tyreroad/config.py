@@ -629,7 +629,7 @@ STAGE_MODULES: dict[str, tuple[str, ...]] = {
     "study": ("log", "pipeline", "study"),
     "study_figures": ("log", "pipeline", "plots.study", "study"),
     "report": ("log", "pipeline", "report", "study", "hysteresis"),
-    "loading_run": ("log", "pipeline", "contact", "material", "loading", "hysteresis"),
+    "loading": ("log", "pipeline", "contact", "material", "loading", "hysteresis"),
     "loading_study": ("log", "pipeline", "hysteresis"),
     "hysteresis_figure": ("log", "pipeline", "plots.hysteresis"),
     "sensitivity": ("log", "sensitivity"),

@@ -13,7 +13,7 @@ rule loading_run:
         material=resolved_material,
         loading=loading_spec,
         solver=config["solver"],
-        code=SOURCE["loading_run"],
+        code=SOURCE["loading"],
     threads: 1
     resources:  # cluster requests (tyreroad.cluster), from the patch size and the path's length
         mem_mb=lambda w, attempt: cluster_resources("loading_run", config, w, attempt)["mem_mb"],
