@@ -6,8 +6,8 @@ At step n the spring compressions zeta solve (SPEC 6)
 
 with the springs' F(zeta), k(zeta) = dF/dzeta (:class:`tyreroad.springs.SpringTable`) and the
 layer's instantaneous (lag-0) compliance G_0. :func:`solve_step` is the one Newton driver of the
-package: warm start, J delta = -R, step halving until max|R| decreases, convergence on max|R| <= tol,
-then one polishing correction. What the layer contributes comes from a *substrate* object:
+package: warm start, J delta = -R, step halving until max|R| decreases (an error if it never
+does), convergence on max|R| <= tol, then one polishing correction. What the layer contributes comes from a *substrate* object:
 
     ``instant(force) -> G_0 F`` [m], shape (M,);
     ``begin_step()``               called once before the Newton iterations of a step;
@@ -51,7 +51,7 @@ __all__ = [
     "solve_step",
 ]
 
-#: Step halvings tried per Newton iteration before the full (non-monotone) step is taken.
+#: Step halvings tried per Newton iteration before the step fails (a growing residual is never accepted).
 _MAX_HALVINGS = 30
 
 
@@ -120,12 +120,51 @@ def _residual(zeta, b, springs: SpringTable, substrate, f_out, k_out) -> np.ndar
     return (zeta - b) + substrate.instant(f_out)
 
 
+def _stiffness_range(k: np.ndarray) -> str:
+    """'spring stiffness k = a ... b N/m over n loaded springs' for error messages."""
+    loaded = k[k > 0]
+    if loaded.size == 0:
+        return "no spring loaded"
+    return f"spring stiffness k = {loaded.min():.3e} ... {loaded.max():.3e} N/m over {loaded.size} loaded springs"
+
+
+def _kink_scale(springs, substrate, n_elem: int):
+    """s_e = 1 + G0_ee k_e(0+) of every spring, or None where the substrate does not ask for it."""
+    self_compliance = getattr(substrate, "self_compliance", None)
+    if self_compliance is None:
+        return None
+    k0 = np.asarray(springs.contact_stiffness(), dtype=float).ravel()
+    return 1.0 + self_compliance * k0
+
+
+def _to_unknown(zeta, scale):
+    """The Newton unknown x: zeta for a gap, s zeta in contact."""
+    if scale is None:
+        return zeta
+    return np.where(zeta > 0.0, scale * zeta, zeta)
+
+
+def _to_compression(x, scale):
+    """zeta(x), the inverse of :func:`_to_unknown`."""
+    if scale is None:
+        return x
+    return np.where(x > 0.0, x / scale, x)
+
+
+def _unknown_step(delta, x, scale):
+    """The step of x for a compression correction delta: dx = s delta in contact, delta elsewhere."""
+    if scale is None:
+        return delta
+    return np.where(x > 0.0, scale * delta, delta)
+
+
 def solve_step(b, zeta0, springs: SpringTable, substrate: Substrate, tolerance: float, max_iterations: int) -> StepResult:
     """Solve R(zeta) = zeta - b + G_0 F(zeta) = 0 by Newton's method from ``zeta0``.
 
     Each iteration takes the substrate's correction delta and halves the step until max|R|
-    decreases (up to 30 halvings; at a contact kink no shorter step may decrease it, and then the
-    full step is taken, ``max_iterations`` still bounding the loop). Once max|R| <= tolerance, one
+    decreases. A step that raises max|R| is never accepted: if 30 halvings (a step of 1e-9 delta)
+    find no decrease, the solve stops at once with an error naming the residual and the range of
+    the loaded springs' stiffness (the caller adds step and d). Once max|R| <= tolerance, one
     more correction polishes the iterate: otherwise it stops anywhere below the tolerance, a force
     error ~ K_patch * tolerance; polished, runs are reproducible to round-off whatever the path.
 
@@ -151,12 +190,15 @@ def solve_step(b, zeta0, springs: SpringTable, substrate: Substrate, tolerance: 
     Raises
     ------
     StepConvergenceError
-        If max|R| > tolerance after ``max_iterations`` iterations.
+        If max|R| > tolerance after ``max_iterations`` iterations, or if no step length along a
+        Newton correction decreases max|R|.
     """
     n_elem = b.size
     f, k = np.empty(n_elem), np.empty(n_elem)
     f_try, k_try = np.empty(n_elem), np.empty(n_elem)
+    scale = _kink_scale(springs, substrate, n_elem)
     zeta = zeta0.copy()
+    x = _to_unknown(zeta, scale)
     r = _residual(zeta, b, springs, substrate, f, k)
     rnorm = float(np.max(np.abs(r)))
     iterations = krylov = 0
@@ -165,33 +207,39 @@ def solve_step(b, zeta0, springs: SpringTable, substrate: Substrate, tolerance: 
         if iterations >= max_iterations:
             raise StepConvergenceError(
                 f"Newton did not converge in {max_iterations} iterations, residual max|R| = {rnorm:.3e} m "
-                f"> tolerance {tolerance:.1e} m ({krylov} Krylov products)",
+                f"> tolerance {tolerance:.1e} m ({krylov} Krylov products; {_stiffness_range(k)})",
                 rnorm,
                 iterations,
             )
         delta, products = substrate.correction(k, r, polish=False)
         krylov += products
+        dx = _unknown_step(delta, x, scale)
         lam = 1.0
         for _ in range(_MAX_HALVINGS + 1):
-            zeta_try = zeta + lam * delta
+            x_try = x + lam * dx
+            zeta_try = _to_compression(x_try, scale)
             r_try = _residual(zeta_try, b, springs, substrate, f_try, k_try)
             rnorm_try = float(np.max(np.abs(r_try)))
             if rnorm_try < rnorm:
                 break
             lam *= 0.5
         else:
-            logger.debug("no residual decrease in %d halvings, full Newton step", _MAX_HALVINGS)
-            zeta_try = zeta + delta
-            r_try = _residual(zeta_try, b, springs, substrate, f_try, k_try)
-            rnorm_try = float(np.max(np.abs(r_try)))
-        zeta, r, rnorm = zeta_try, r_try, rnorm_try
+            # no step length along delta decreases max|R|: a growing residual is never accepted
+            raise StepConvergenceError(
+                f"line search: no decrease of the residual max|R| = {rnorm:.3e} m (tolerance {tolerance:.1e} m) "
+                f"along Newton correction {iterations + 1} in {_MAX_HALVINGS} halvings "
+                f"({krylov} Krylov products; {_stiffness_range(k)})",
+                rnorm,
+                iterations,
+            )
+        x, zeta, r, rnorm = x_try, zeta_try, r_try, rnorm_try
         f, f_try = f_try, f
         k, k_try = k_try, k
         iterations += 1
     if iterations > 0 and rnorm > 0.0:
         delta, products = substrate.correction(k, r, polish=True)
         krylov += products
-        zeta_try = zeta + delta
+        zeta_try = _to_compression(x + _unknown_step(delta, x, scale), scale)
         r_try = _residual(zeta_try, b, springs, substrate, f_try, k_try)
         rnorm_try = float(np.max(np.abs(r_try)))
         if rnorm_try <= rnorm:
@@ -351,6 +399,7 @@ class FFTSubstrate:
         krylov_restart: int = 60,
         krylov_max: int = 600,
         refresh_after: int = 8,
+        max_norm_fraction: float = 0.5,
     ):
         if not isinstance(conv, OffsetConvolution):
             raise TypeError(f"conv: expected OffsetConvolution, got {type(conv).__name__}")
@@ -359,10 +408,15 @@ class FFTSubstrate:
         if not 0.0 < eta_max < 1.0:
             raise ValueError(f"eta_max: expected 0 < eta_max < 1, got {eta_max!r}")
         self.eta_max = float(eta_max)
+        if not 0.0 < max_norm_fraction < 1.0:
+            raise ValueError(f"max_norm_fraction: expected 0 < theta < 1, got {max_norm_fraction!r}")
+        self.max_norm_fraction = float(max_norm_fraction)
         self.krylov_restart = checks.integer("krylov_restart", krylov_restart)
         self.krylov_max = checks.integer("krylov_max", krylov_max)
         self.refresh_after = checks.integer("refresh_after", refresh_after, minimum=0)
         self.preconditioner = BlockJacobiPreconditioner(conv, block)
+        nx, ny = conv.shape
+        self.self_compliance = float(conv.lag0[nx - 1, ny - 1])
         self.begin_step()
 
     def instant(self, force: np.ndarray) -> np.ndarray:
@@ -399,12 +453,25 @@ class FFTSubstrate:
                 self._eta = min(self.eta_max, eta_new)
             if self._last_products is None or self._last_products > self.refresh_after:
                 self.preconditioner.update(stiffness.reshape(self.conv.shape))
-            target = max(self._eta * r2, 0.25 * self.tolerance)
+            # ||J d + R||_2 <= theta max|R| bounds the linear residual's max-norm by theta max|R|:
+            # the linear model then promises a max-norm decrease whatever the number of elements
+            rinf = float(np.max(np.abs(residual)))
+            target = max(min(self._eta * r2, self.max_norm_fraction * rinf), 0.25 * self.tolerance)
         delta, products, linear = gmres(
             self._matvec(stiffness), self._psolve, -residual, target, self.krylov_restart, self.krylov_max
         )
         if linear > target:
             logger.debug("GMRES stopped at ||J d + R|| = %.3e > target %.3e after %d products", linear, target, products)
+        # The rows of unloaded springs (k = 0) read delta_I = -R_I - (G_0 K delta)_I: setting them so
+        # (one more convolution) leaves the linear error on the loaded rows only, where a spring of
+        # stiffness k turns it into a compression error ~ 1 / (g_00 k) smaller. Without it, the
+        # GMRES error on a spring about to touch moves it across zeta = 0 by ~ eta ||R||: with
+        # stiff springs that is a force jump k eta ||R|| that no step length along delta undoes.
+        free = stiffness == 0.0
+        if free.any() and not free.all():
+            loaded_part = self.instant(stiffness * delta)
+            delta[free] = -residual[free] - loaded_part[free]
+            products += 1
         if not polish:
             self._r2_prev = r2
             self._last_products = products

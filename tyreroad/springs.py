@@ -501,6 +501,10 @@ class SpringTable:
         """
         _spring_eval(zeta, self._rows, self.stiffness, self.force, self.zeta_step, force_out, stiffness_out)
 
+    def contact_stiffness(self) -> np.ndarray:
+        """k(0+) of every spring [N/m], shape (M,): the stiffness just after first contact."""
+        return self.stiffness.reshape(-1, self.stiffness.shape[-1])[:, 0]
+
     @functools.cached_property
     def _rows(self) -> np.ndarray:
         return np.arange(self.n_springs)
