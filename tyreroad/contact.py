@@ -116,7 +116,7 @@ class SolverSettings:
         Add the kernel's tail beyond the kept lags (SPEC 9, :mod:`tyreroad.memory`) to runs longer
         than the kept lags (default True). Off, such a run is an error naming the lags and steps.
     krylov_forcing : float
-        Largest inexact-Newton forcing term of the ``fft`` path, 0 < eta < 1 (default 1e-4): GMRES
+        Largest inexact-Newton forcing term of the ``fft`` path, 0 < eta < 1 (default 1e-6): GMRES
         solves each Newton correction to at most this fraction of ||R||_2
         (:class:`tyreroad.newton.FFTSubstrate`).
     """
@@ -128,7 +128,7 @@ class SolverSettings:
     method: str = "auto"
     preconditioner_block: int = 4
     long_memory: bool = True
-    krylov_forcing: float = 1e-4
+    krylov_forcing: float = 1e-6
 
     def resolved_method(self, n_elements: int, n_steps: int | None = None, n_lags: int | None = None) -> str:
         """``dense`` or ``fft`` for a patch of ``n_elements`` elements (and a run of ``n_steps`` steps
