@@ -334,7 +334,7 @@ def march(
         h = history.displacement(n)
         b = loading.free_compression(n) - h
         try:
-            step = solve_step(b, zeta + (b - b_prev), springs, substrate, settings.tolerance, settings.max_iterations)
+            step = solve_step(b, zeta, springs, substrate, settings.tolerance, settings.max_iterations, shift=b - b_prev)
         except StepConvergenceError as err:
             raise ContactConvergenceError(f"contact step {n} ({loading.describe(n)}): {err}") from err
         b_prev, zeta = b, step.zeta

@@ -165,7 +165,8 @@ def _unknown_step(delta, x, scale):
     return np.where(x > 0.0, scale * delta, delta)
 
 
-def solve_step(b, zeta0, springs: SpringTable, substrate: Substrate, tolerance: float, max_iterations: int) -> StepResult:
+def solve_step(b, zeta0, springs: SpringTable, substrate: Substrate, tolerance: float, max_iterations: int,
+               shift=None) -> StepResult:
     """Solve R(zeta) = zeta - b + G_0 F(zeta) = 0 by Newton's method from ``zeta0``.
 
     Each iteration takes the substrate's correction delta and halves the step until max|R|
@@ -200,6 +201,9 @@ def solve_step(b, zeta0, springs: SpringTable, substrate: Substrate, tolerance: 
         Convergence criterion on max|R| [m].
     max_iterations : int
         Newton iterations allowed.
+    shift : numpy.ndarray, optional
+        Warm start from ``zeta0`` moved by the change of b since that solution [m], shape (M,):
+        zeta0 + shift, or with a scaled unknown x(zeta0) + shift. None: start at ``zeta0``.
 
     Returns
     -------
@@ -215,8 +219,17 @@ def solve_step(b, zeta0, springs: SpringTable, substrate: Substrate, tolerance: 
     f, k = np.empty(n_elem), np.empty(n_elem)
     f_try, k_try = np.empty(n_elem), np.empty(n_elem)
     scale = _kink_scale(springs, substrate, n_elem)
-    zeta = zeta0.copy()
-    x = _to_unknown(zeta, scale)
+    if shift is None:
+        zeta = zeta0.copy()
+        x = _to_unknown(zeta, scale)
+    elif scale is None:
+        zeta = zeta0 + shift
+        x = zeta
+    else:
+        # the warm start moves the scaled unknown: a spring in contact keeps nearly its force
+        # (its compression changes by shift / s), the layer surface follows the indenter
+        x = _to_unknown(zeta0, scale) + shift
+        zeta = _to_compression(x, scale)
     r = _residual(zeta, b, springs, substrate, f, k)
     rnorm = float(np.max(np.abs(r)))
     iterations = krylov = 0
