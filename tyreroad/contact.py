@@ -409,8 +409,9 @@ def build_collaborators(
     if method == "fft":
         conv = OffsetConvolution(g, shape, workers=threads)
         logger.info("FFT/Newton-Krylov path: %d x %d elements, %d lags, padded grid %s", nx, ny, n_lags, conv.padded)
-        substrate, history = FFTSubstrate(conv, settings.tolerance, block=settings.preconditioner_block,
-                                  eta_max=settings.krylov_forcing), FFTHistory(conv)
+        substrate = FFTSubstrate(conv, settings.tolerance, block=settings.preconditioner_block,
+                                 eta_max=settings.krylov_forcing)
+        history = FFTHistory(conv)
     else:
         substrate, history = DenseSubstrate(g[:, :, 0]), DenseHistory(g, shape)
     if needs_tail:
