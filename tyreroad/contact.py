@@ -115,6 +115,10 @@ class SolverSettings:
     long_memory : bool
         Add the kernel's tail beyond the kept lags (SPEC 9, :mod:`tyreroad.memory`) to runs longer
         than the kept lags (default True). Off, such a run is an error naming the lags and steps.
+    krylov_forcing : float
+        Largest inexact-Newton forcing term of the ``fft`` path, 0 < eta < 1 (default 1e-6): GMRES
+        solves each Newton correction to at most this fraction of ||R||_2
+        (:class:`tyreroad.newton.FFTSubstrate`).
     """
 
     tolerance: float = 1e-12
@@ -124,6 +128,7 @@ class SolverSettings:
     method: str = "auto"
     preconditioner_block: int = 4
     long_memory: bool = True
+    krylov_forcing: float = 1e-6
 
     def resolved_method(self, n_elements: int, n_steps: int | None = None, n_lags: int | None = None) -> str:
         """``dense`` or ``fft`` for a patch of ``n_elements`` elements (and a run of ``n_steps`` steps
@@ -142,6 +147,8 @@ class SolverSettings:
             raise ValueError(f"solver.long_memory: expected true or false, got {self.long_memory!r}")
         for key in ("tolerance", "d_max", "quasistatic_step"):
             checks.real(f"solver.{key}", getattr(self, key), positive=True)
+        if not 0.0 < checks.real("solver.krylov_forcing", self.krylov_forcing) < 1.0:
+            raise ValueError(f"solver.krylov_forcing: expected 0 < eta < 1, got {self.krylov_forcing!r}")
         for key in ("max_iterations", "preconditioner_block"):
             value = getattr(self, key)
             if isinstance(value, float):  # only from_config may turn 4.0 into 4
@@ -170,7 +177,7 @@ class SolverSettings:
                 f"solver.{unknown[0]}: unknown key (expected one of {', '.join(sorted(known))})"
             )
         values = dict(section)
-        for key in ("tolerance", "d_max", "quasistatic_step"):
+        for key in ("tolerance", "d_max", "quasistatic_step", "krylov_forcing"):
             if key in values:
                 values[key] = checks.real(f"solver.{key}", values[key], positive=True)
         for key in ("max_iterations", "preconditioner_block"):
@@ -327,7 +334,7 @@ def march(
         h = history.displacement(n)
         b = loading.free_compression(n) - h
         try:
-            step = solve_step(b, zeta + (b - b_prev), springs, substrate, settings.tolerance, settings.max_iterations)
+            step = solve_step(b, zeta, springs, substrate, settings.tolerance, settings.max_iterations, shift=b - b_prev)
         except StepConvergenceError as err:
             raise ContactConvergenceError(f"contact step {n} ({loading.describe(n)}): {err}") from err
         b_prev, zeta = b, step.zeta
@@ -402,7 +409,9 @@ def build_collaborators(
     if method == "fft":
         conv = OffsetConvolution(g, shape, workers=threads)
         logger.info("FFT/Newton-Krylov path: %d x %d elements, %d lags, padded grid %s", nx, ny, n_lags, conv.padded)
-        substrate, history = FFTSubstrate(conv, settings.tolerance, block=settings.preconditioner_block), FFTHistory(conv)
+        substrate = FFTSubstrate(conv, settings.tolerance, block=settings.preconditioner_block,
+                                 eta_max=settings.krylov_forcing)
+        history = FFTHistory(conv)
     else:
         substrate, history = DenseSubstrate(g[:, :, 0]), DenseHistory(g, shape)
     if needs_tail:

@@ -262,13 +262,109 @@ class OffsetConvolution:
         return self._lag_re, self._lag_im
 
 
+@njit(cache=True)
+def _tile_inverses(g_tile, k, bx, by, inv, loaded):  # pragma: no cover - numba
+    """inv[t] = (I + G_tile diag(k_t))^-1 of every tile t with a loaded element (Gauss-Jordan, partial pivoting).
+
+    k: (nx, ny) field; tile (tx, ty) covers [tx bx, tx bx + bx) x [ty by, ty by + by), elements
+    beyond the patch count as k = 0 (unit Jacobian columns). loaded[t] = False: inv[t] is unused
+    (the identity). Returns False for an exactly singular pivot.
+    """
+    nx, ny = k.shape
+    n_ty = inv.shape[0] // ((nx + bx - 1) // bx)
+    nb = bx * by
+    kt = np.empty(nb)
+    a = np.empty((nb, 2 * nb))
+    for t in range(inv.shape[0]):
+        tx = t // n_ty
+        ty = t - tx * n_ty
+        any_k = False
+        for p in range(nb):
+            px = tx * bx + p // by
+            py = ty * by + p % by
+            kt[p] = k[px, py] if px < nx and py < ny else 0.0
+            if kt[p] != 0.0:
+                any_k = True
+        loaded[t] = any_k
+        if not any_k:
+            continue
+        for i in range(nb):
+            for j in range(nb):
+                a[i, j] = g_tile[i, j] * kt[j]
+                a[i, nb + j] = 0.0
+            a[i, i] += 1.0
+            a[i, nb + i] = 1.0
+        for col in range(nb):
+            piv = col
+            amax = abs(a[col, col])
+            for r in range(col + 1, nb):
+                if abs(a[r, col]) > amax:
+                    amax = abs(a[r, col])
+                    piv = r
+            if amax == 0.0:
+                return False
+            if piv != col:
+                for c in range(2 * nb):
+                    tmp = a[col, c]
+                    a[col, c] = a[piv, c]
+                    a[piv, c] = tmp
+            inv_p = 1.0 / a[col, col]
+            for c in range(2 * nb):
+                a[col, c] *= inv_p
+            for r in range(nb):
+                if r != col:
+                    fct = a[r, col]
+                    if fct != 0.0:
+                        for c in range(2 * nb):
+                            a[r, c] -= fct * a[col, c]
+        for i in range(nb):
+            for j in range(nb):
+                inv[t, i, j] = a[i, nb + j]
+    return True
+
+
+@njit(cache=True)
+def _tile_apply(inv, loaded, r, bx, by, out):  # pragma: no cover - numba
+    """out = blockdiag(inv) r on the (nx, ny) field (tiles as in :func:`_tile_inverses`)."""
+    nx, ny = r.shape
+    n_ty = inv.shape[0] // ((nx + bx - 1) // bx)
+    nb = bx * by
+    rt = np.empty(nb)
+    for t in range(inv.shape[0]):
+        tx = t // n_ty
+        ty = t - tx * n_ty
+        x0 = tx * bx
+        y0 = ty * by
+        if not loaded[t]:
+            for p in range(nb):
+                px = x0 + p // by
+                py = y0 + p % by
+                if px < nx and py < ny:
+                    out[px, py] = r[px, py]
+            continue
+        for p in range(nb):
+            px = x0 + p // by
+            py = y0 + p % by
+            rt[p] = r[px, py] if px < nx and py < ny else 0.0
+        for i in range(nb):
+            px = x0 + i // by
+            py = y0 + i % by
+            if px < nx and py < ny:
+                acc = 0.0
+                for j in range(nb):
+                    acc += inv[t, i, j] * rt[j]
+                out[px, py] = acc
+
+
 class BlockJacobiPreconditioner:
     """Exact inverse of J = I + G_0 diag(k) restricted to square tiles of elements.
 
     The patch is cut into tiles of b x b elements (the last row/column of tiles padded with
     k = 0 elements, whose Jacobian columns are unit vectors, so the padding leaves the real
     block unchanged). All tiles share one lag-0 block G_tile[p, q] = g[x_p - x_q, y_p - y_q, 0]
-    by translation invariance; only k differs, so an update is one batched inverse.
+    by translation invariance; only k differs. An update inverts the tiles that hold a loaded
+    element (compiled Gauss-Jordan, no full-size temporaries); tiles without contact are the
+    identity.
 
     Parameters
     ----------
@@ -286,48 +382,27 @@ class BlockJacobiPreconditioner:
         self.shape = conv.shape
         px, py = np.divmod(np.arange(self.bx * self.by), self.by)
         g0 = conv.lag0
-        self._g_tile = g0[px[:, None] - px[None, :] + nx - 1, py[:, None] - py[None, :] + ny - 1]
-        self._inv = None
-
-    def _to_tiles(self, field: np.ndarray) -> np.ndarray:
-        nx, ny = self.shape
-        tx, ty = self.tiles
-        pad = np.zeros((tx * self.bx, ty * self.by))
-        pad[:nx, :ny] = field.reshape(nx, ny)
-        return pad.reshape(tx, self.bx, ty, self.by).transpose(0, 2, 1, 3).reshape(tx * ty, self.bx * self.by)
-
-    def _from_tiles(self, tiles: np.ndarray) -> np.ndarray:
-        nx, ny = self.shape
-        tx, ty = self.tiles
-        full = tiles.reshape(tx, ty, self.bx, self.by).transpose(0, 2, 1, 3).reshape(tx * self.bx, ty * self.by)
-        return full[:nx, :ny]
+        self._g_tile = np.ascontiguousarray(g0[px[:, None] - px[None, :] + nx - 1, py[:, None] - py[None, :] + ny - 1])
+        n_tiles = self.tiles[0] * self.tiles[1]
+        self._inv = np.empty((n_tiles, self.bx * self.by, self.bx * self.by))
+        self._loaded = np.zeros(n_tiles, dtype=np.bool_)
+        self._ready = False
 
     def update(self, stiffness) -> None:
         """Factorise the tile blocks for spring stiffnesses k [N/m], shape (nx, ny)."""
-        k = self._to_tiles(np.asarray(stiffness, dtype=float))
-        if self.bx * self.by == 1:
-            self._inv = 1.0 / (1.0 + self._g_tile[0, 0] * k)
-            return
-        nb = self.bx * self.by
-        # tiles without contact have J = I there: invert only the loaded ones
-        loaded = np.flatnonzero(np.any(k != 0.0, axis=1))
-        inv = np.zeros((k.shape[0], nb, nb))
-        idx = np.arange(nb)
-        inv[:, idx, idx] = 1.0
-        if loaded.size:
-            a = self._g_tile[None, :, :] * k[loaded, None, :]
-            a[:, idx, idx] += 1.0
-            inv[loaded] = np.linalg.inv(a)
-        self._inv = inv
+        k = np.ascontiguousarray(np.asarray(stiffness, dtype=float).reshape(self.shape))
+        if not _tile_inverses(self._g_tile, k, self.bx, self.by, self._inv, self._loaded):
+            raise np.linalg.LinAlgError("BlockJacobiPreconditioner: singular tile block")
+        self._ready = True
 
     def solve(self, residual) -> np.ndarray:
         """Apply the tile inverses to a field [m], shape (nx, ny) or flat; returns (nx, ny)."""
-        if self._inv is None:
+        if not self._ready:
             raise RuntimeError("BlockJacobiPreconditioner.solve called before update(stiffness)")
-        r = self._to_tiles(np.asarray(residual, dtype=float))
-        if self._inv.ndim == 2:
-            return self._from_tiles(self._inv * r)
-        return self._from_tiles(np.matmul(self._inv, r[:, :, None])[:, :, 0])
+        r = np.ascontiguousarray(np.asarray(residual, dtype=float).reshape(self.shape))
+        out = np.empty(self.shape)
+        _tile_apply(self._inv, self._loaded, r, self.bx, self.by, out)
+        return out
 
 
 def _norm(x: np.ndarray) -> float:
