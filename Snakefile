@@ -11,6 +11,7 @@ include: "workflow/rules/greens.smk"
 include: "workflow/rules/contact.smk"
 include: "workflow/rules/study.smk"
 include: "workflow/rules/sensitivity.smk"
+include: "workflow/rules/stiffness.smk"
 
 
 rule all:

@@ -152,7 +152,7 @@ def realistic_run():
 # --------------------------------------------------------------------------------------------
 def test_settings_defaults_and_errors():
     s = SolverSettings.from_config({})
-    assert (s.tolerance, s.max_iterations, s.d_max, s.quasistatic_step) == (1e-12, 50, 2.5e-4, 1e-6)
+    assert (s.tolerance, s.max_iterations, s.d_max, s.quasistatic_step) == (1e-12, 50, 2.5e-4, 1e-5)
     assert SolverSettings.from_config({"max_iterations": 7.0, "d_max": 1e-4}).max_iterations == 7
     for bad, key in [
         ({"tolerance": -1}, "solver.tolerance"),

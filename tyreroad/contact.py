@@ -103,7 +103,8 @@ class SolverSettings:
     d_max : float
         Final indentation of a run [m] (default 2.5e-4).
     quasistatic_step : float
-        Indentation step of quasi-static runs [m] (default 1e-6).
+        Indentation step of quasi-static runs [m] (default 1e-5: K(d) comes from the stored tangent
+        of each state, exact between contact-set changes, so the grid may be coarse).
     method : {"auto", "dense", "fft"}
         History sum and step solver. ``dense``: offset-table history and a direct solve of the
         Jacobian of the loaded elements (exact, the reference; O(M^2 L) per step). ``fft``: 2-D FFT
@@ -120,7 +121,7 @@ class SolverSettings:
     tolerance: float = 1e-12
     max_iterations: int = 50
     d_max: float = 2.5e-4
-    quasistatic_step: float = 1e-6
+    quasistatic_step: float = 1e-5
     method: str = "auto"
     preconditioner_block: int = 4
     long_memory: bool = True

@@ -674,8 +674,11 @@ def stiffness_spectrum(
     if not math.isclose(e0, e_qs, rel_tol=1e-9):
         logger.warning("quasi-static modulus %.6g Pa differs from E(omega -> 0) = %.6g Pa: K*(f -> 0) is not the "
                        "tangent of the relaxed state", e_qs, e0)
-    return _dataset(states, freq, k_star, relaxed, iterations[:, 1:], method, n_elem, material, element_size,
-                    sample_rate, e0, e_qs)
+    ds = _dataset(states, freq, k_star, relaxed, iterations[:, 1:], method, n_elem, material, element_size,
+                  sample_rate, e0, e_qs)
+    ds.attrs["report_frequencies"] = np.asarray(spectrum.report_frequencies, dtype=float)
+    ds.attrs["figure_preload"] = float(spectrum.figure_preload)
+    return ds
 
 
 _PRELOAD_STATE = (

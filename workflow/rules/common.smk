@@ -55,6 +55,11 @@ def study_greens():
     return [f"results/greens/{material}.nc" for material in STUDY["materials"]]
 
 
+def stiffness_spectra():
+    """K*(f; d0) files of the study materials on the study surface (rule stiffness_spectrum)."""
+    return [f"results/stiffness_spectrum/{STUDY_SURFACE}/{m}.nc" for m in STUDY["materials"]]
+
+
 def max_patch_elements():
     """Largest patch (elements in x and y) over the configured surfaces: the Green's tables cover it."""
     sizes = [tuple(s["patch_elements"]) for s in config["surfaces"].values()]
@@ -76,6 +81,8 @@ def all_targets():
         "results/study.nc",
         "results/report.md",
         *[f"results/figures/{name}.png" for name in STUDY_FIGURES],
+        *stiffness_spectra(),
+        "results/figures/fig9_stiffness_spectrum.png",
     ]
 
 

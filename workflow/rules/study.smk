@@ -33,6 +33,7 @@ rule report:
         study="results/study.nc",
         surface=f"results/surface/{STUDY_SURFACE}.nc",
         greens=study_greens(),
+        spectra=stiffness_spectra(),
     output:
         md="results/report.md",
     log:

@@ -9,4 +9,5 @@ pipeline.run_report(
     study_cfg=snakemake.params.study,
     variants=snakemake.params.variants,
     out_md=snakemake.output.md,
+    spectra_ncs=snakemake.input.get("spectra", []),
 )

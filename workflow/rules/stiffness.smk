@@ -1,0 +1,48 @@
+# Dynamic contact stiffness K*(f; d0) (SPEC 11, tyreroad.stiffness): per study material the complex
+# contact spring about the relaxed preload state, figure 9, and (rule report) a report section.
+from tyreroad.stiffness import SpectrumSettings as _SpectrumSettings
+
+# planning-time check of the section and of its frequencies against the kernel's sample rate
+STIFFNESS_SPECTRUM = config.get("stiffness_spectrum", {})
+_SpectrumSettings.from_config(STIFFNESS_SPECTRUM).frequencies(config["greens"].get("sample_rate", 51200.0))
+
+
+# plotting on the submitting host, never as a cluster job
+localrules:
+    stiffness_figure,
+
+
+rule stiffness_spectrum:
+    input:
+        surface="results/surface/{surface}.nc",
+        springs="results/springs/{surface}/{material}.nc",
+        greens="results/greens/{material}.nc",
+    output:
+        nc="results/stiffness_spectrum/{surface}/{material}.nc",
+    log:
+        "results/logs/stiffness_spectrum/{surface}/{material}.log",
+    benchmark:
+        "results/benchmarks/stiffness_spectrum/{surface}/{material}.tsv"
+    params:
+        material=lambda w: resolved_material(w.material),
+        solver=config["solver"],
+        spectrum=STIFFNESS_SPECTRUM,
+    threads: 1
+    script:
+        "../scripts/stiffness_spectrum.py"
+
+
+rule stiffness_figure:
+    input:
+        spectra=stiffness_spectra(),
+    output:
+        png="results/figures/fig9_stiffness_spectrum.png",
+    log:
+        "results/logs/stiffness_figure.log",
+    params:
+        reference=STUDY["reference_material"],
+        variants=lambda w: material_variants(),
+        spectrum=STIFFNESS_SPECTRUM,
+    threads: 1
+    script:
+        "../scripts/stiffness_figure.py"
