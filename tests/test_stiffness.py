@@ -306,3 +306,62 @@ def test_harmonic_run_matches_k_star(frequency, sample_rate, periods):
     # the state the oscillation starts from is the relaxed preload state of the file
     before = np.flatnonzero(t < start)[-1]
     assert res.force[before] == pytest.approx(float(ds["preload_force"][0]), rel=1e-3)
+
+
+# --------------------------------------------------------------------------------------------
+# stage, figure and report section
+# --------------------------------------------------------------------------------------------
+def _stage_files(tmp_path, patch):
+    """Surface, springs and greens files of the 8 x 8 test patch (only what the stage reads)."""
+    import xarray as xr
+
+    nx, ny = patch["z1"].shape
+    springs = patch["springs"]
+    zeta = np.arange(springs.stiffness.shape[-1]) * springs.zeta_step
+    a = {"units": "m", "long_name": "x"}
+    surface = xr.Dataset({"z1": (("ex", "ey"), patch["z1"], a)}, attrs={"element_size": C})
+    sp = xr.Dataset({"stiffness": (("ex", "ey", "zeta"), springs.stiffness.reshape(nx, ny, -1), a),
+                     "force": (("ex", "ey", "zeta"), springs.force.reshape(nx, ny, -1), a)},
+                    coords={"zeta": ("zeta", zeta, a)})
+    greens = xr.Dataset({"g_static": (("dx", "dy"), patch["g_static"], a)},
+                        attrs={"element_size": C, "sample_rate": FS})
+    paths = {}
+    for name, ds in (("surface", surface), ("springs", sp), ("greens", greens)):
+        paths[name] = tmp_path / f"{name}.nc"
+        ds.to_netcdf(paths[name])
+    return paths
+
+
+def test_stage_writes_the_spectrum_with_provenance_and_figure_and_report_section(tmp_path, patch):
+    from tyreroad import io, pipeline
+    from tyreroad.report import _stiffness_spectrum_section
+
+    paths = _stage_files(tmp_path, patch)
+    spectrum_cfg = {"preloads": [5e-5, 1e-4], "n_frequencies": 12}
+    outs = []
+    for name, spec in (("tread", TREAD), ("tread-eta1.5", {**TREAD, "loss_scale": 1.5})):
+        out = tmp_path / f"{name}.nc"
+        pipeline.run_stiffness_spectrum(paths["surface"], paths["springs"], paths["greens"], "synth", name, spec,
+                                        {"quasistatic_step": 1e-5}, spectrum_cfg, out)
+        outs.append(out)
+    ds = io.read_dataset(outs[0])
+    assert ds.attrs["material"] == "tread" and ds.attrs["surface"] == "synth" and len(ds.attrs["config_sha256"]) == 64
+    assert ds.sizes == {"preload": 2, "frequency": 15}  # 12 log-spaced + 100 Hz, 1 kHz, 5 kHz
+    assert ds["frequency"].values[-1] == FS / 2
+    assert np.all(ds["loss_stiffness"].values > 0)
+    assert list(ds.attrs["report_frequencies"]) == [100.0, 1000.0, 5000.0]
+    variants = {"loss": [[1.0, "tread"], [1.5, "tread-eta1.5"]], "density": [[1.0, "tread"]]}
+    png = tmp_path / "fig9.png"
+    pipeline.run_stiffness_figure(outs, "tread", variants, spectrum_cfg, png)
+    assert png.stat().st_size > 10_000
+    spectra = [io.read_dataset(p) for p in outs]
+    text = "\n".join(_stiffness_spectrum_section(spectra, "tread", variants, ["tread", "tread-eta1.5"]))
+    k1k = float(ds["storage_stiffness"].sel(preload=1e-4, frequency=1000.0))
+    ratio = k1k / float(ds["tangent_stiffness_qs"].sel(preload=1e-4))
+    assert f"{k1k * 1e-6:.3f} / {float(ds['loss_factor'].sel(preload=1e-4, frequency=1000.0)):.3f}" in text
+    assert f"| {ratio:.3f} |" in text and "relaxed preload state" in text and "| tread-eta1.5 |" in text
+    # a bad section is an error naming the key, before any work
+    with pytest.raises(ValueError, match="stiffness_spectrum.figure_preload"):
+        pipeline.run_stiffness_spectrum(paths["surface"], paths["springs"], paths["greens"], "synth", "tread", TREAD,
+                                        {}, {"preloads": [5e-5], "figure_preload": 1e-4}, tmp_path / "bad.nc")
+    assert not (tmp_path / "bad.nc").exists()

@@ -59,6 +59,9 @@ def test_full_tiny_study_produces_every_output(workdir):
         "figures/fig6_stiffness.png",
         "figures/fig7_loss.png",
         "figures/fig8_density.png",
+        "stiffness_spectrum/iso10844/tread.nc",
+        "stiffness_spectrum/iso10844/tread-rho2.nc",
+        "figures/fig9_stiffness_spectrum.png",
     ]
     missing = [p for p in expected if not (results / p).is_file()]
     assert not missing
@@ -131,4 +134,5 @@ def test_slurm_profile_plans_the_study(tmp_path):
     out = proc.stdout + proc.stderr
     assert proc.returncode == 0, out[-3000:]
     totals = [line.split() for line in out.splitlines() if line.startswith("total")]
-    assert totals and int(totals[0][1]) == 37, out[-3000:]  # 5 materials x (3 + 1) runs + 17 other jobs
+    # 5 materials x (3 + 1) runs + 5 stiffness spectra + 18 other jobs (figure 9 included)
+    assert totals and int(totals[0][1]) == 43, out[-3000:]
