@@ -546,7 +546,8 @@ def _count_between_states(grid: np.ndarray, d: np.ndarray, zeta: np.ndarray) -> 
 
 _ATTRS = {
     "force": ("N", "total contact force on the tread surface"),
-    "stiffness": ("N/m", "contact stiffness K = dF/dd (central differences on the native samples, then linear interpolation)"),
+    "stiffness": ("N/m", "contact stiffness K = dF/dd (central differences on the native samples, then linear "
+                  "interpolation; quasi-static runs: their stored tangent, see stiffness_method)"),
     "contact_fraction": ("1", "fraction of elements in contact (contact_count / number of elements)"),
     "backing_force": ("N", "total force at the rigid backing of the layer"),
     "backing_stiffness": ("N/m", "stiffness dF_backing/dd (central differences on the native samples, then linear interpolation)"),
@@ -554,7 +555,8 @@ _ATTRS = {
     "saturated_backing_stiffness": ("N/m", "saturated stiffness of the backing force: median over the saturation range"),
     "native_indentation": ("m", "indentation at the run's native samples (NaN-padded)"),
     "native_force": ("N", "total contact force at the native samples (NaN-padded)"),
-    "native_stiffness": ("N/m", "contact stiffness at the native samples (NaN-padded)"),
+    "native_stiffness": ("N/m", "contact stiffness at the native samples (NaN-padded; the tangent where "
+                         "stiffness_from_tangent = 1)"),
     "native_backing_force": ("N", "backing force at the native samples (NaN-padded)"),
     "native_contact_fraction": ("1", "fraction of elements in contact at the native samples (NaN-padded)"),
     "native_samples": ("1", "number of native samples of the run's initial loading branch (all samples of a monotone run)"),
