@@ -293,10 +293,9 @@ def test_harmonic_run_matches_k_star(frequency, sample_rate, periods):
     preset = LoadingPreset("h", {"kind": "harmonic", "preload": 1e-4, "preload_speed": speed, "relax_time": hold,
                                  "amplitude": 1e-6, "frequency": frequency, "periods": periods})
     t, d, _ = preset.path("dynamic", sample_rate, settings.quasistatic_step)
-    from tyreroad.contact import solve_path as path_solve
     from tyreroad.memory import TailModel
 
-    res = path_solve(z1, springs.stiffness, springs.force, springs.zeta_step,
+    res = solve_path(z1, springs.stiffness, springs.force, springs.zeta_step,
                      greens["g"].transpose("dx", "dy", "lag").values, d, settings, time=t,
                      tail=TailModel.from_greens(greens))
     start = 1e-4 / speed + hold
