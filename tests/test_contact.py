@@ -152,7 +152,7 @@ def realistic_run():
 # --------------------------------------------------------------------------------------------
 def test_settings_defaults_and_errors():
     s = SolverSettings.from_config({})
-    assert (s.tolerance, s.max_iterations, s.d_max, s.quasistatic_step) == (1e-12, 50, 2.5e-4, 1e-6)
+    assert (s.tolerance, s.max_iterations, s.d_max, s.quasistatic_step) == (1e-12, 50, 2.5e-4, 1e-5)
     assert SolverSettings.from_config({"max_iterations": 7.0, "d_max": 1e-4}).max_iterations == 7
     for bad, key in [
         ({"tolerance": -1}, "solver.tolerance"),
@@ -272,7 +272,7 @@ def test_one_lag_dynamic_equals_quasistatic():
     z1 = realistic_z1(nx, ny, rng)
     k, f, step = punch_tables(nx * ny, rng)
     _, g_static = realistic_kernel(nx, ny, 1)
-    settings = SolverSettings(d_max=2.5e-4)
+    settings = SolverSettings(d_max=2.5e-4, quasistatic_step=1e-6)
     dyn = solve_dynamic(z1, k, f, step, g_static[:, :, None], 51200.0, 500.0, settings)
     qs = solve_quasistatic(z1, k, f, step, g_static, settings, indentation=dyn.indentation)
     np.testing.assert_allclose(dyn.force, qs.force, rtol=1e-12, atol=0)

@@ -175,6 +175,22 @@ def test_count_growth_peak():
     assert count_growth_peak(d, logistic, 2e-5) == pytest.approx(1.2e-4, abs=1.5e-6)
 
 
+def test_quasistatic_resampling_check_with_the_tangent_of_a_coarse_run():
+    """A 10 um quasi-static grid with its tangent: resampled through the Hermite interpolant, the
+    estimate moves by < 0.1 % (linear interpolation of the same coarse force: several %)."""
+    grid = np.arange(251) * 1e-6
+    dq = np.arange(26) * 1e-5
+    fq = 2e6 * (dq - DS * (1 - np.exp(-dq / DS)))
+    kq = 2e6 * (1 - np.exp(-dq / DS))
+    for a in (50.0, 500.0):
+        da = 0.5 * a * (np.arange(400) * DT) ** 2
+        da = da[da <= 2.5e-4 + 1e-12]
+        dk, pw = quasistatic_resampling_check(dq, fq, da, grid, (1.8e-4, 2.5e-4), 5e-5, kq)
+        assert abs(dk) < 1e-3 and pw < 1e-3
+        _, pw_linear = quasistatic_resampling_check(dq, fq, da, grid, (1.8e-4, 2.5e-4), 5e-5)
+        assert pw_linear > 4 * pw
+
+
 def test_quasistatic_resampling_check():
     grid = np.arange(251) * 1e-6
     dq = grid.copy()

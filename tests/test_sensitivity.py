@@ -19,7 +19,7 @@ from tyreroad.greens import greens_dataset
 from tyreroad.material import material_from_config
 from tyreroad.pipeline import resolved_material_config
 from tyreroad.springs import SpringModel, element_springs, resolve_spring_modulus
-from tyreroad.study import contact_stiffness, interp_on_grid, saturated_stiffness
+from tyreroad.study import contact_stiffness, hermite_on_grid, interp_on_grid, saturated_stiffness
 from tyreroad.surface import prepare_surface
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -98,7 +98,10 @@ def _direct_ksat(cfg, surface, preset, mode, accel, grid, sat):
     greens = greens_dataset(mat, n_elements=(6, 6), element_size=1e-3, sample_rate=g["sample_rate"],
                             n_lags=g["n_lags"], n_fft=g["n_fft"])
     res = solve_run(surface, springs, greens, mat, mode, accel, SolverSettings.from_config(cfg["solver"]))
-    k = interp_on_grid(grid, res.indentation, contact_stiffness(res.indentation, res.force))
+    if res.tangent_stiffness is not None:  # quasi-static: K from the tangent, as the study takes it
+        k = hermite_on_grid(grid, res.indentation, res.force, res.tangent_stiffness)[1]
+    else:
+        k = interp_on_grid(grid, res.indentation, contact_stiffness(res.indentation, res.force))
     return saturated_stiffness(grid, k, sat)
 
 

@@ -22,6 +22,7 @@ from tyreroad.study import (
     contact_stiffness,
     equivalent_modulus_scale,
     expected_cases,
+    hermite_on_grid,
     interp_on_grid,
     loading_branch,
     open_study,
@@ -378,3 +379,59 @@ def test_study_figures_written(tmp_path):
         plot_study_figures(ds, {"loss": [[1.0, "ref"], [0.5, "tread-eta0.5"]], "density": [[1.0, "ref"]]}, out)
     with pytest.raises(ValueError, match="expected 4 output paths"):
         plot_study_figures(ds, variants, list(out.values())[:3])
+
+
+# ----------------------------------------------------------------------------------------------
+# quasi-static runs with a stored tangent (coarse quasi-static grids)
+# ----------------------------------------------------------------------------------------------
+def test_hermite_on_grid_exact_for_cubics_nan_outside():
+    x = np.array([0.0, 1e-5, 3e-5, 4e-5])
+    grid = np.linspace(-1e-6, 4.1e-5, 43)
+    f, k = hermite_on_grid(grid, x, x**3 - 2e-5 * x**2, 3 * x**2 - 4e-5 * x)
+    inside = (grid >= 0) & (grid <= 4e-5 + 1e-15)
+    np.testing.assert_allclose(f[inside], grid[inside] ** 3 - 2e-5 * grid[inside] ** 2, rtol=0, atol=1e-28)
+    np.testing.assert_allclose(k[inside], 3 * grid[inside] ** 2 - 4e-5 * grid[inside], rtol=0, atol=1e-22)
+    assert np.all(np.isnan(f[~inside])) and np.all(np.isnan(k[~inside]))
+
+
+def _with_tangent(run, stiffness_fn, entry):
+    """A quasi-static synthetic run with the stored tangent and element compressions zeta_e = d - entry_e."""
+    d = run["indentation"].values
+    out = run.copy()
+    out["tangent_stiffness"] = ("step", stiffness_fn(d), {"units": "N/m", "long_name": "tangent"})
+    zeta = d[:, None] - entry[None, :]
+    out["compression"] = (("step", "ex", "ey"), zeta.reshape(d.size, N_EX, N_EY), {"units": "m", "long_name": "zeta"})
+    out["contact_count"] = ("step", np.count_nonzero(zeta > 0, axis=1), {"units": "1", "long_name": "count"})
+    return out
+
+
+def test_aggregate_takes_quasistatic_k_from_the_stored_tangent():
+    """A 10 um quasi-static run with its tangent: K on the 1 um grid is the exact dF/dd to 2e-4 of K_sat
+    (second differences of the same coarse force are off by > 1e-3), F to 3e-6 of S d_max, and the
+    contact fraction moves element by element between the coarse states."""
+    st = settings()
+    entry = np.linspace(0.0, 2.2e-4, N_EX * N_EY) + 3.3e-6
+    runs = []
+    for m, mode, a in expected_cases(st):
+        S = S_OF[(m, mode, a)]
+        if mode == "quasistatic":
+            run = synthetic_run(m, mode, a, force_saturating(S, DS), qs_step=1e-5)
+            runs.append(_with_tangent(run, stiffness_saturating(S, DS), entry))
+        else:
+            runs.append(synthetic_run(m, mode, a, force_saturating(S, DS)))
+    ds = aggregate(runs, st)
+    d = ds["indentation"].values
+    assert list(ds["stiffness_from_tangent"].values) == [1, 0, 0, 1, 0, 0]
+    for m in ("ref", "other"):
+        S = S_OF[(m, "quasistatic", 0.0)]
+        qs = ds.study.sel_case(material=m, mode="quasistatic")
+        np.testing.assert_allclose(qs["stiffness"].values, stiffness_saturating(S, DS)(d), rtol=0, atol=2e-4 * S)
+        np.testing.assert_allclose(qs["force"].values, force_saturating(S, DS)(d), rtol=0, atol=3e-6 * S * D_MAX)
+        np.testing.assert_allclose(qs["backing_stiffness"].values, qs["stiffness"].values, rtol=1e-15)
+        n = int(qs["native_samples"])
+        np.testing.assert_allclose(qs["native_stiffness"].values[:n], stiffness_saturating(S, DS)(d[::10]), rtol=1e-14)
+        expect = np.count_nonzero(d[:, None] > entry[None, :], axis=1) / (N_EX * N_EY)
+        np.testing.assert_allclose(qs["contact_fraction"].values, expect, atol=1e-12)
+        fd = interp_on_grid(d, d[::10], contact_stiffness(d[::10], force_saturating(S, DS)(d[::10])))
+        assert np.max(np.abs(fd - stiffness_saturating(S, DS)(d))) > 1e-3 * S
+    assert "tangent" in ds.attrs["stiffness_method"]

@@ -107,6 +107,9 @@ def test_full_tiny_study_produces_every_output(workdir):
         "loading/iso10844/tread/dynamic_cycle.nc",
         "loading.nc",
         "figures/fig10_hysteresis.png",
+        "stiffness_spectrum/iso10844/tread.nc",
+        "stiffness_spectrum/iso10844/tread-rho2.nc",
+        "figures/fig9_stiffness_spectrum.png",
     ]
     missing = [p for p in expected if not (results / p).is_file()]
     assert not missing

@@ -22,7 +22,7 @@ from typing import Any, Mapping
 __all__ = ["CLUSTER_RULES", "job_resources", "run_steps"]
 
 #: Rules that run as cluster jobs (the others are ``localrules``).
-CLUSTER_RULES = ("prepare_surface", "element_springs", "greens", "contact", "loading_run")
+CLUSTER_RULES = ("prepare_surface", "element_springs", "greens", "contact", "loading_run", "stiffness_spectrum")
 
 _BASE_MB = 280.0          # MB, a stage's process: interpreter, numpy/scipy/numba/xarray, small arrays
 _SNAKEMAKE_MB = 400.0     # MB, the job's two Snakemake processes (batch step, job step)
@@ -143,7 +143,9 @@ def job_resources(rule: str, config: Mapping[str, Any], wildcards: Mapping[str, 
         nx, ny = _elements(config, wildcards["surface"])
         m = nx * ny
         solver = config["solver"]
-        if rule == "loading_run":
+        if rule == "stiffness_spectrum":  # a few quasi-static states and one solve per frequency
+            steps = 4 * len(config.get("stiffness_spectrum", {}).get("preloads", [0] * 4)) + 80
+        elif rule == "loading_run":
             from .loading import LoadingPreset
 
             preset = LoadingPreset(wildcards["loading"], config["loadings"][wildcards["loading"]])

@@ -628,10 +628,12 @@ STAGE_MODULES: dict[str, tuple[str, ...]] = {
     "contact": ("log", "pipeline", "contact", "material"),
     "study": ("log", "pipeline", "study"),
     "study_figures": ("log", "pipeline", "plots.study", "study"),
-    "report": ("log", "pipeline", "report", "study", "hysteresis"),
+    "report": ("log", "pipeline", "report", "study", "hysteresis", "stiffness"),
     "loading": ("log", "pipeline", "contact", "material", "loading", "hysteresis"),
     "loading_study": ("log", "pipeline", "hysteresis"),
     "hysteresis_figure": ("log", "pipeline", "plots.hysteresis"),
+    "stiffness_spectrum": ("log", "pipeline", "contact", "material", "stiffness"),
+    "stiffness_figure": ("log", "pipeline", "plots.stiffness", "stiffness"),
     "sensitivity": ("log", "sensitivity"),
 }
 

@@ -103,7 +103,8 @@ class SolverSettings:
     d_max : float
         Final indentation of a run [m] (default 2.5e-4).
     quasistatic_step : float
-        Indentation step of quasi-static runs [m] (default 1e-6).
+        Indentation step of quasi-static runs [m] (default 1e-5: K(d) comes from the stored tangent
+        of each state, exact between contact-set changes, so the grid may be coarse).
     method : {"auto", "dense", "fft"}
         History sum and step solver. ``dense``: offset-table history and a direct solve of the
         Jacobian of the loaded elements (exact, the reference; O(M^2 L) per step). ``fft``: 2-D FFT
@@ -124,7 +125,7 @@ class SolverSettings:
     tolerance: float = 1e-12
     max_iterations: int = 50
     d_max: float = 2.5e-4
-    quasistatic_step: float = 1e-6
+    quasistatic_step: float = 1e-5
     method: str = "auto"
     preconditioner_block: int = 4
     long_memory: bool = True
@@ -213,6 +214,10 @@ class ContactResult:
         Final max_e |R_e| of each step [m], shape (n,).
     backing_force : numpy.ndarray or None
         Total force at the rigid backing [N], shape (n,), when computed (:func:`solve_run`).
+    tangent_stiffness : numpy.ndarray or None
+        Quasi-static runs (one-lag kernel): dF/dd of each solved state [N/m], shape (n),
+        1^T [G0|C + diag(1/k)]^-1 1 over the contact set (:class:`tyreroad.stiffness.TangentStiffness`);
+        exact between contact-set changes, so coarse indentation steps keep K(d) exact. None otherwise.
     """
 
     time: np.ndarray | None
@@ -226,6 +231,7 @@ class ContactResult:
     krylov_iterations: np.ndarray
     residual: np.ndarray
     backing_force: np.ndarray | None = None
+    tangent_stiffness: np.ndarray | None = None
 
     @property
     def indentation(self) -> np.ndarray:
@@ -242,11 +248,16 @@ class RunRecorder:
         Steps of the run.
     shape : tuple of int
         Patch (nx, ny).
+    tangent : callable, optional
+        k_e of a converged state -> dF/dd [N/m] (quasi-static runs:
+        :class:`tyreroad.stiffness.TangentStiffness`); stored per step as ``tangent_stiffness``.
     """
 
-    def __init__(self, n_steps: int, shape: tuple[int, int]):
+    def __init__(self, n_steps: int, shape: tuple[int, int], tangent=None):
         n_elem = shape[0] * shape[1]
         self.shape = shape
+        self.tangent = tangent
+        self.tangent_stiffness = None if tangent is None else np.zeros(n_steps)
         self.force = np.zeros((n_steps, n_elem))
         self.compression = np.zeros((n_steps, n_elem))
         self.displacement = np.zeros((n_steps, n_elem))
@@ -264,6 +275,8 @@ class RunRecorder:
         self.newton_iterations[n] = step.newton_iterations
         self.krylov_iterations[n] = step.krylov_iterations
         self.residual[n] = step.residual
+        if self.tangent is not None:
+            self.tangent_stiffness[n] = self.tangent(step.stiffness)
 
     def result(self, loading: Loading, n_steps: int | None = None) -> ContactResult:
         """The :class:`ContactResult` of the first ``n_steps`` recorded steps (default all)."""
@@ -281,6 +294,7 @@ class RunRecorder:
             newton_iterations=self.newton_iterations[:n],
             krylov_iterations=self.krylov_iterations[:n],
             residual=self.residual[:n],
+            tangent_stiffness=None if self.tangent_stiffness is None else self.tangent_stiffness[:n],
         )
 
 
@@ -489,7 +503,14 @@ def _run(loading, springs: SpringTable, kernel, settings: SolverSettings, thread
     substrate, history = build_collaborators(kernel, shape, settings, threads, loading.n_steps, tail)
     if extra_histories:
         history = HistorySum([history, *extra_histories])
-    return march(loading, springs, substrate, history, settings, RunRecorder(loading.n_steps, shape))
+    tangent = None
+    if np.shape(kernel)[2] == 1 and not extra_histories:
+        # a one-lag kernel: every step is a static state, whose tangent dF/dd is stored
+        from .stiffness import TangentStiffness
+
+        tangent = TangentStiffness(np.asarray(kernel)[:, :, 0], shape,
+                                   settings.resolved_method(shape[0] * shape[1]), workers=threads)
+    return march(loading, springs, substrate, history, settings, RunRecorder(loading.n_steps, shape, tangent))
 
 
 def dynamic_indentation(sample_rate: float, acceleration: float, d_max: float) -> tuple[np.ndarray, np.ndarray]:
@@ -738,6 +759,11 @@ def _result_dataset(result: ContactResult, attrs: dict) -> xr.Dataset:
                               {"units": "1", "long_name": "Krylov matrix-vector products (0: direct solve)"}),
         "residual": ("step", result.residual, {"units": "m", "long_name": "final max-norm Newton residual"}),
     }
+    if result.tangent_stiffness is not None:
+        data_vars["tangent_stiffness"] = (
+            "step", np.asarray(result.tangent_stiffness, dtype=float),
+            {"units": "N/m", "long_name": "quasi-static tangent stiffness dF/dd of the solved state, "
+             "1^T [G0|C + diag(1/k)]^-1 1 over the contact set"})
     data_vars.update(prescribed_fields)
     return xr.Dataset(data_vars, coords=coords, attrs=attrs)
 

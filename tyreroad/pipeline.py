@@ -31,6 +31,8 @@ __all__ = [
     "run_study",
     "run_study_figures",
     "run_report",
+    "run_stiffness_spectrum",
+    "run_stiffness_figure",
 ]
 
 
@@ -257,9 +259,11 @@ def run_report(
     variants: Mapping[str, Any],
     out_md: str | Path,
     loading_nc: str | Path | None = None,
+    spectra_ncs: Sequence[str | Path] = (),
 ) -> None:
-    """``results/report.md``: the seed's claims checked against the measured numbers, and the
-    hysteresis of the load-unload cycles when ``loading_nc`` (results/loading.nc) is given."""
+    """``results/report.md``: the seed's claims checked against the measured numbers; given the
+    stiffness-spectrum files, the section on K*(f; d0); given ``loading_nc`` (results/loading.nc),
+    the hysteresis of the load-unload cycles."""
     from .hysteresis import hysteresis_section
     from .report import build_report, write_report
     from .study import StudySettings, open_study
@@ -274,6 +278,7 @@ def run_report(
         settings,
         variants,
         config={"study": dict(study_cfg), "variants": dict(variants)},
+        spectra=[io.read_dataset(p) for p in spectra_ncs],
         extra_sections=extra,
     )
     write_report(text, out_md)
@@ -339,3 +344,51 @@ def run_hysteresis_figure(loading_nc: str | Path, out_png: str | Path) -> None:
 
     with io.atomic_path(out_png) as tmp:
         plot_hysteresis(io.read_dataset(loading_nc), tmp)
+
+
+def run_stiffness_spectrum(
+    surface_nc: str | Path,
+    springs_nc: str | Path,
+    greens_nc: str | Path,
+    surface_name: str,
+    material_name: str,
+    material_cfg: Mapping[str, Any],
+    solver_cfg: Mapping[str, Any],
+    spectrum_cfg: Mapping[str, Any] | None,
+    out_nc: str | Path,
+    threads: int = 1,
+) -> None:
+    """Stage ``stiffness_spectrum``: K*(f; d0) of one material about its relaxed preload states (SPEC 11)."""
+    from .contact import SolverSettings
+    from .stiffness import SpectrumSettings, spectrum_from_datasets
+
+    settings = SolverSettings.from_config(solver_cfg)
+    spectrum = SpectrumSettings.from_config(spectrum_cfg)
+    material = _material(material_name, material_cfg)
+    ds = spectrum_from_datasets(
+        io.read_dataset(surface_nc), io.read_dataset(springs_nc), io.read_dataset(greens_nc), material,
+        spectrum, settings, threads=threads,
+    )
+    provenance = {
+        "stiffness_spectrum": dict(spectrum_cfg or {}),
+        "solver": dict(solver_cfg),
+        "material": {material_name: dict(material.config)},
+    }
+    io.write_dataset(ds, out_nc, provenance, stage="stiffness_spectrum", surface=surface_name, material=material_name)
+
+
+def run_stiffness_figure(
+    spectra_ncs: Sequence[str | Path],
+    reference: str,
+    variants: Mapping[str, Any],
+    spectrum_cfg: Mapping[str, Any] | None,
+    out_png: str | Path,
+) -> None:
+    """Figure 9: |K*| and the loss factor against f, per preload for the reference, variants at one preload."""
+    from .plots.stiffness import plot_stiffness_spectrum
+    from .stiffness import SpectrumSettings
+
+    spectra = [io.read_dataset(p) for p in spectra_ncs]
+    figure_preload = SpectrumSettings.from_config(spectrum_cfg).figure_preload
+    with io.atomic_path(out_png) as tmp:
+        plot_stiffness_spectrum(spectra, reference, variants, figure_preload, tmp)

@@ -41,7 +41,8 @@ The thresholds (module constants below) and why they were chosen:
    the acceleration is the stiffness *estimate*, through the sampling of d: the QS force is resampled at
    each acceleration's native indentations d_n = a (n dt)^2 / 2, differentiated the same way as the
    dynamic runs and compared with the uniform-grid estimate: pass if |K_sat change| <= 1 % and the
-   pointwise difference for d >= 0.05 mm is <= 5 % of K_sat.
+   pointwise difference for d >= 0.05 mm is <= 5 % of K_sat. A QS run with a stored tangent (coarse
+   QS grid) is resampled through the cubic Hermite interpolant of (d, F, dF/dd), as the study does.
 10. Backing force gives equivalent results: for every case, |K_sat(backing)/K_sat(surface) - 1| <= 2 %.
 """
 
@@ -63,6 +64,7 @@ from .study import (
     StudySettings,
     case_label,
     contact_stiffness,
+    hermite_on_grid,
     interp_on_grid,
     saturated_stiffness,
     variant_members,
@@ -229,12 +231,17 @@ def quasistatic_resampling_check(
     grid: np.ndarray,
     saturation_range: Sequence[float],
     d_min: float,
+    qs_stiffness: np.ndarray | None = None,
 ) -> tuple[float, float]:
     """Stiffness of a quasi-static run estimated on another (dynamic) indentation sampling.
 
-    The QS force is linearly interpolated at the dynamic run's native indentations (those within the
-    QS range), differentiated with :func:`tyreroad.study.contact_stiffness`, interpolated onto the
-    common grid, and compared with the estimate from the QS run's own samples.
+    The QS force is interpolated at the dynamic run's native indentations (those within the QS
+    range), differentiated with :func:`tyreroad.study.contact_stiffness`, interpolated onto the
+    common grid, and compared with the estimate from the QS run's own samples. Without
+    ``qs_stiffness`` the interpolation is linear and the native estimate is the second-order
+    difference of the QS force; with it (the run's tangent dF/dd at its samples, coarse QS grids)
+    the force is the cubic Hermite interpolant and the native estimate its derivative, as the study
+    computes them (:func:`tyreroad.study.hermite_on_grid`).
 
     Returns
     -------
@@ -246,8 +253,14 @@ def quasistatic_resampling_check(
     fq = np.asarray(qs_force, dtype=float)
     da = np.asarray(dyn_indentation, dtype=float)
     da = da[np.isfinite(da) & (da <= dq[-1] * (1 + 1e-12))]
-    k_native = interp_on_grid(grid, dq, contact_stiffness(dq, fq))
-    k_resampled = interp_on_grid(grid, da, contact_stiffness(da, np.interp(da, dq, fq)))
+    if qs_stiffness is None:
+        k_native = interp_on_grid(grid, dq, contact_stiffness(dq, fq))
+        fa = np.interp(da, dq, fq)
+    else:
+        kq = np.asarray(qs_stiffness, dtype=float)
+        k_native = hermite_on_grid(grid, dq, fq, kq)[1]
+        fa = hermite_on_grid(da, dq, fq, kq)[0]
+    k_resampled = interp_on_grid(grid, da, contact_stiffness(da, fa))
     ks_native = saturated_stiffness(grid, k_native, saturation_range)
     ks_resampled = saturated_stiffness(grid, k_resampled, saturation_range)
     sel = (grid >= d_min) & np.isfinite(k_native) & np.isfinite(k_resampled)
@@ -576,11 +589,13 @@ def claim_qs_independent(c: ClaimContext) -> ClaimResult:
     nq = int(qsc["native_samples"])
     dq = qsc["native_indentation"].values[:nq]
     fq = qsc["native_force"].values[:nq]
+    tangent = "stiffness_from_tangent" in qsc and int(qsc["stiffness_from_tangent"]) > 0
+    kq = qsc["native_stiffness"].values[:nq] if tangent else None
     ks, pw = {}, {}
     for a in c.accels:
         dc = c.case(c.ref, "dynamic", a)
         da = dc["native_indentation"].values[: int(dc["native_samples"])]
-        ks[a], pw[a] = quasistatic_resampling_check(dq, fq, da, c.d, c.sat, t["c9_d_min"])
+        ks[a], pw[a] = quasistatic_resampling_check(dq, fq, da, c.d, c.sat, t["c9_d_min"], kq)
     return ClaimResult(
         9,
         "QS stiffness independent of acceleration",
@@ -734,6 +749,98 @@ def _material_section(greens: dict[str, xr.Dataset], materials: Sequence[str], v
         "negative time) over the kernel's total energy; small means the time-domain kernel is causal.",
     ]
     return lines + [""]
+
+
+def _stiffness_at(ds: xr.Dataset, preload_index: int, freq: float) -> tuple[float, float] | None:
+    """(K' [N/m], loss factor [1]) of a stiffness spectrum at ``freq`` [Hz]: the grid value when the
+    frequency is on the grid, else None (the stage inserts the report frequencies into its grid)."""
+    f = ds["frequency"].values
+    j = int(np.argmin(np.abs(f - freq)))
+    if not np.isclose(f[j], freq, rtol=1e-9, atol=0):
+        return None
+    sel = ds.isel(preload=preload_index, frequency=j)
+    return float(sel["storage_stiffness"]), float(sel["loss_factor"])
+
+
+def _spectrum_row(ds: xr.Dataset, p: int, freqs: Sequence[float]) -> list[str]:
+    k_qs = float(ds["tangent_stiffness_qs"][p])
+    cells = []
+    for fr in freqs:
+        v = _stiffness_at(ds, p, fr)
+        cells.append("—" if v is None else f"{v[0] * _MN:.3f} / {v[1]:.3f}")
+    at_1k = _stiffness_at(ds, p, 1000.0)
+    cells.append("—" if at_1k is None else f"{at_1k[0] / k_qs:.3f}")
+    return cells
+
+
+def _stiffness_spectrum_section(spectra: Sequence[xr.Dataset], reference: str, variants: Mapping[str, Any],
+                                materials: Sequence[str]) -> list[str]:
+    """Report section on K*(f; d0): K' and the loss factor at the report frequencies per preload."""
+    by = {str(ds.attrs.get("material")): ds for ds in spectra}
+    if reference not in by:
+        return []
+    ref = by[reference]
+    freqs = [float(f) for f in np.atleast_1d(ref.attrs.get("report_frequencies", (100.0, 1000.0, 5000.0)))]
+    head = " | ".join(f"K′ [MN/m] / η at {f:g} Hz" for f in freqs)
+    f_lo = float(ref["frequency"].values[0])
+    lines = [
+        "## Dynamic contact stiffness K*(f; d0)",
+        "",
+        "The contact spring a tyre/road model needs, per preload d0: the complex contact stiffness "
+        "K* = 1ᵀ[G_C(f) + diag(1/k_e)]⁻¹1 of the contact linearised about the **relaxed preload state** (the "
+        "quasi-static solution at d0 with the quasi-static modulus: a tread held at d0 until it has relaxed, "
+        "which takes seconds and more for the default fractional tread), with the element FRF g(f) of the layer "
+        "over the contact set C and the tangent spring stiffnesses k_e (SPEC 11; exp(+iωt), F̂ = K* δ̂). "
+        f"Files: `results/stiffness_spectrum/{{surface}}/{{material}}.nc` ({ref.sizes['frequency']} frequencies "
+        f"from {f_lo:g} Hz to {float(ref['frequency'].values[-1]):g} Hz), figure "
+        "`results/figures/fig9_stiffness_spectrum.png`. K′ = Re K*, η = Im K*/Re K*, K_qs = dF/dd of the "
+        "quasi-static curve at d0.",
+        "",
+        f"Reference material `{reference}`:",
+        "",
+        f"| d0 [mm] | in contact | F(d0) [N] | K_qs [MN/m] | K*(f→0)/K_qs − 1 | K′({f_lo:g} Hz)/K_qs | {head} "
+        "| K′(1 kHz)/K_qs |",
+        "|---|---|---|---|---|---|" + "---|" * len(freqs) + "---|",
+    ]
+    for p, d0 in enumerate(ref["preload"].values):
+        k_qs = float(ref["tangent_stiffness_qs"][p])
+        lines.append(
+            f"| {d0 * _MM:.3g} | {100 * float(ref['contact_fraction'][p]):.1f} % | {float(ref['preload_force'][p]):.1f} "
+            f"| {k_qs * _MN:.3f} | {float(ref['relaxed_stiffness'][p]) / k_qs - 1:+.1e} "
+            f"| {float(ref['storage_stiffness'][p, 0]) / k_qs:.3f} | " + " | ".join(_spectrum_row(ref, p, freqs)) + " |"
+        )
+    fig_preload = float(ref.attrs.get("figure_preload", ref["preload"].values[(ref.sizes["preload"] - 1) // 2]))
+    others = [m for m in materials if m in by]
+    lines += [
+        "",
+        f"All materials at d0 = {fig_preload * _MM:g} mm:",
+        "",
+        f"| material | K_qs [MN/m] | {head} | K′(1 kHz)/K_qs |",
+        "|---|---|" + "---|" * len(freqs) + "---|",
+    ]
+    for m in others:
+        ds = by[m]
+        pre = ds["preload"].values
+        p = int(np.argmin(np.abs(pre - fig_preload)))
+        if not np.isclose(pre[p], fig_preload, rtol=1e-9, atol=0):
+            continue
+        lines.append(f"| {m} | {float(ds['tangent_stiffness_qs'][p]) * _MN:.3f} | "
+                     + " | ".join(_spectrum_row(ds, p, freqs)) + " |")
+    loss_min = min(float(by[m]["loss_stiffness"].min()) for m in others)
+    limit = max(abs(float(by[m]["relaxed_stiffness"][p] / by[m]["tangent_stiffness_qs"][p] - 1))
+                for m in others for p in range(by[m].sizes["preload"]))
+    lines += [
+        "",
+        f"- f → 0: K*(f → 0) (element FRF at f = 0, modulus E(ω → 0)) equals K_qs to {limit:.1e} at every preload "
+        f"and material. At {f_lo:g} Hz the contact is still stiffer than that: the tread's modulus keeps relaxing "
+        "well below 10 Hz.",
+        f"- Passivity: the smallest loss stiffness K″ over every material, preload and frequency is "
+        f"{loss_min * _MN:.4f} MN/m ({'≥ 0' if loss_min >= 0 else 'NEGATIVE'}).",
+        "- Reading it: `xarray.open_dataset(path).storage_stiffness.sel(preload=1e-4, frequency=1000)`; "
+        "see the README (\"contact spring for your model\").",
+        "",
+    ]
+    return lines
 
 
 def _storage_change(greens: dict[str, xr.Dataset], material: str, reference: str, freq: float) -> float | None:
@@ -920,6 +1027,7 @@ def build_report(
     settings: StudySettings,
     variants: Mapping[str, Any],
     config: Mapping[str, Any] | None = None,
+    spectra: Sequence[xr.Dataset] | None = None,
     extra_sections: Sequence[Sequence[str]] = (),
 ) -> str:
     """The markdown text of ``results/report.md``.
@@ -940,6 +1048,9 @@ def build_report(
     config : mapping, optional
         The config that made the report (its hash is printed); default: the study settings and
         the variants.
+    spectra : sequence of xarray.Dataset, optional
+        Stiffness-spectrum datasets of the study materials (:mod:`tyreroad.stiffness`): the section
+        on K*(f; d0); None omits it.
     extra_sections : sequence of list of str
         Further markdown sections (e.g. :func:`tyreroad.hysteresis.hysteresis_section`), placed
         before the config.
@@ -983,7 +1094,10 @@ def build_report(
         f"- surface `{settings.surface}`, reference material `{settings.reference_material}`, "
         f"reference case: dynamic at a = {a_ref:g} m/s², d_max = {settings.d_max * _MM:g} mm",
         f"- K = dF/dd by second-order differences on each run's native samples, then linear interpolation "
-        f"onto a {settings.indentation_step * 1e6:g} µm grid; K_sat = median K over "
+        f"onto a {settings.indentation_step * 1e6:g} µm grid"
+        + ("; quasi-static runs: the tangent dF/dd of each solved state, F and K by cubic Hermite "
+           "interpolation" if "stiffness_from_tangent" in study and int(study["stiffness_from_tangent"].sum()) else "")
+        + "; K_sat = median K over "
         f"[{settings.saturation_range[0] * _MM:g}, {settings.saturation_range[1] * _MM:g}] mm",
         "",
         f"## Seed claims: {summary}",
@@ -1001,6 +1115,8 @@ def build_report(
     lines += _decides_section({c.number: c for c in claims}, study, settings, variants, greens_by)
     lines += _equivalent_section(study, settings)
     lines += _cases_section(study)
+    if spectra:
+        lines += _stiffness_spectrum_section(spectra, settings.reference_material, variants, list(settings.materials))
     if surface is not None:
         lines += _surface_section(surface)
     materials = [str(m) for m in dict.fromkeys(study["material"].values.astype(str))]

@@ -50,6 +50,7 @@ from .study import (
     EQUIVALENT_RANGE,
     contact_stiffness,
     equivalent_modulus_scale,
+    hermite_on_grid,
     interp_on_grid,
     loading_branch,
     saturated_stiffness,
@@ -333,7 +334,10 @@ class _Runner:
         self.runs += 1
         n = loading_branch(res.indentation)
         d, f = res.indentation[:n], res.force[:n]
-        k = interp_on_grid(self.grid, d, contact_stiffness(d, f))
+        if res.tangent_stiffness is not None:  # quasi-static: the tangent of each state, as the study does
+            k = hermite_on_grid(self.grid, d, f, res.tangent_stiffness[:n])[1]
+        else:
+            k = interp_on_grid(self.grid, d, contact_stiffness(d, f))
         frac = interp_on_grid(self.grid, d, res.contact_count[:n] / float(np.prod(self.n_elements)))
         ksat = saturated_stiffness(self.grid, k, self.saturation_range)
         logger.info("%s %s a=%g: K_sat = %.4g N/m", name, mode, accel, ksat)

@@ -11,6 +11,16 @@ Choices (the specification leaves them open):
   three-point formula for unequal spacing (one-sided second-order formulas at the two ends) and
   only then interpolated linearly onto the common grid. Differentiating the already interpolated
   force would give a piecewise-constant K with jumps at every native sample.
+* Quasi-static runs carry the tangent stiffness of every solved state (``tangent_stiffness``,
+  dF/dd = 1^T [G0|C + diag(1/k)]^-1 1, exact between contact-set changes; :mod:`tyreroad.stiffness`),
+  so they may step coarsely (``solver.quasistatic_step``, default 10 um). For such a run K at the
+  native samples *is* the tangent, and F and K go onto the common grid through the cubic Hermite
+  interpolant of (d, F, dF/dd) and its derivative (:func:`hermite_on_grid`): K = dF/dd holds on the
+  grid as well, and F is interpolated to fourth order instead of second. The backing force of a
+  quasi-static run equals the surface force and is treated the same way. The contact fraction on
+  the grid counts the elements whose compression, linear in d between two solved states, is
+  positive (so the count between coarse samples moves element by element, not linearly).
+  ``stiffness_from_tangent`` (per case) records which cases did.
 * Interpolation onto the common grid is linear (``numpy.interp``). Grid points outside a run's
   native range (beyond a rounding tolerance) are NaN, never extrapolated. A run that stops short of
   d_max by more than its last native step is an error.
@@ -69,6 +79,7 @@ __all__ = [
     "contact_stiffness",
     "saturated_stiffness",
     "interp_on_grid",
+    "hermite_on_grid",
     "loading_branch",
     "equivalent_modulus_scale",
     "aggregate",
@@ -322,6 +333,41 @@ def interp_on_grid(grid: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray
     return out
 
 
+def hermite_on_grid(grid: np.ndarray, x: np.ndarray, y: np.ndarray, dydx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Cubic Hermite interpolation of samples (x, y) with slopes dydx onto ``grid``, and its derivative.
+
+    Used for quasi-static runs whose tangent stiffness dF/dd is known at every sample: F on the grid
+    is fourth-order accurate between samples and K = dF/dd of the interpolant is continuous and
+    equals the tangent at every sample. NaN outside [x_0, x_end] (as :func:`interp_on_grid`).
+
+    Parameters
+    ----------
+    grid : array_like
+        Points to interpolate at [m].
+    x : array_like
+        Strictly increasing sample positions [m].
+    y, dydx : array_like
+        Values (e.g. F [N]) and slopes (e.g. K [N/m]) at the samples.
+
+    Returns
+    -------
+    (numpy.ndarray, numpy.ndarray)
+        y and dy/dx on ``grid``.
+    """
+    from scipy.interpolate import CubicHermiteSpline
+
+    grid = np.asarray(grid, dtype=float)
+    x = np.asarray(x, dtype=float)
+    spline = CubicHermiteSpline(x, np.asarray(y, dtype=float), np.asarray(dydx, dtype=float), extrapolate=True)
+    tol = 1e-9 * max(abs(x[-1]), 1e-300)
+    inside = (grid >= x[0] - tol) & (grid <= x[-1] + tol)
+    at = np.clip(grid, x[0], x[-1])
+    value, slope = spline(at), spline(at, 1)
+    value[~inside] = np.nan
+    slope[~inside] = np.nan
+    return value, slope
+
+
 def loading_branch(indentation: np.ndarray) -> int:
     """Number of samples of the initial loading branch of a prescribed indentation path.
 
@@ -440,6 +486,8 @@ def _native(ds: xr.Dataset, src: str, settings: StudySettings) -> dict[str, np.n
         "backing_force": np.asarray(ds["backing_force"].values, dtype=float),
         "contact_fraction": np.asarray(ds["contact_count"].values, dtype=float) / n_elements,
     }
+    if "tangent_stiffness" in ds.variables:
+        out["tangent"] = np.asarray(ds["tangent_stiffness"].values, dtype=float)
     for name, v in out.items():
         if v.ndim != 1 or v.size != d.size:
             raise ValueError(f"{src}: {name} must be 1-D along 'step' like indentation, got shape {v.shape}")
@@ -468,16 +516,41 @@ def _native(ds: xr.Dataset, src: str, settings: StudySettings) -> dict[str, np.n
         )
     if d[0] > settings.indentation_step * (1 + 1e-9):
         raise ValueError(f"{src}: run starts at d = {d[0]:.6g} m, beyond the first grid step; expected first contact at d = 0")
-    out["stiffness"] = contact_stiffness(d, out["force"])
-    out["backing_stiffness"] = contact_stiffness(d, out["backing_force"])
+    if "tangent" in out:
+        # the tangent of each solved (static) state: exact K at the native samples
+        out["stiffness"] = out.pop("tangent")
+        if "compression" in ds.variables:
+            # the contact count between coarse samples: elements whose compression, interpolated
+            # linearly between the solved states, is positive
+            zeta = np.asarray(ds["compression"].values, dtype=float)[:n_branch].reshape(d.size, -1)
+            out["grid_contact_fraction"] = _count_between_states(settings.grid, d, zeta) / n_elements
+        same = np.array_equal(out["backing_force"], out["force"])
+        out["backing_stiffness"] = out["stiffness"] if same else contact_stiffness(d, out["backing_force"])
+        out["from_tangent"] = np.array(2 if same else 1)
+    else:
+        out["stiffness"] = contact_stiffness(d, out["force"])
+        out["backing_stiffness"] = contact_stiffness(d, out["backing_force"])
+        out["from_tangent"] = np.array(0)
     out["n_elements"] = np.array(n_elements)
     out["run_samples"] = np.array(n_run)
     return out
 
 
+def _count_between_states(grid: np.ndarray, d: np.ndarray, zeta: np.ndarray) -> np.ndarray:
+    """Number of elements with zeta > 0 at every grid d, zeta_e linear in d between the states (NaN outside)."""
+    j = np.clip(np.searchsorted(d, grid, side="right") - 1, 0, d.size - 2)
+    t = ((grid - d[j]) / (d[j + 1] - d[j]))[:, None]
+    z = (1.0 - t) * zeta[j] + t * zeta[j + 1]
+    count = np.count_nonzero(z > 0, axis=1).astype(float)
+    tol = 1e-9 * max(abs(d[-1]), 1e-300)
+    count[(grid < d[0] - tol) | (grid > d[-1] + tol)] = np.nan
+    return count
+
+
 _ATTRS = {
     "force": ("N", "total contact force on the tread surface"),
-    "stiffness": ("N/m", "contact stiffness K = dF/dd (central differences on the native samples, then linear interpolation)"),
+    "stiffness": ("N/m", "contact stiffness K = dF/dd (central differences on the native samples, then linear "
+                  "interpolation; quasi-static runs: their stored tangent, see stiffness_method)"),
     "contact_fraction": ("1", "fraction of elements in contact (contact_count / number of elements)"),
     "backing_force": ("N", "total force at the rigid backing of the layer"),
     "backing_stiffness": ("N/m", "stiffness dF_backing/dd (central differences on the native samples, then linear interpolation)"),
@@ -485,7 +558,8 @@ _ATTRS = {
     "saturated_backing_stiffness": ("N/m", "saturated stiffness of the backing force: median over the saturation range"),
     "native_indentation": ("m", "indentation at the run's native samples (NaN-padded)"),
     "native_force": ("N", "total contact force at the native samples (NaN-padded)"),
-    "native_stiffness": ("N/m", "contact stiffness at the native samples (NaN-padded)"),
+    "native_stiffness": ("N/m", "contact stiffness at the native samples (NaN-padded; the tangent where "
+                         "stiffness_from_tangent = 1)"),
     "native_backing_force": ("N", "backing force at the native samples (NaN-padded)"),
     "native_contact_fraction": ("1", "fraction of elements in contact at the native samples (NaN-padded)"),
     "native_samples": ("1", "number of native samples of the run's initial loading branch (all samples of a monotone run)"),
@@ -500,6 +574,11 @@ _ATTRS = {
         "RMS(K - s K_QS) / RMS(K) over the equivalent range: what the scaled quasi-static model leaves unexplained",
     ),
     "n_elements": ("1", "number of contact elements of the patch"),
+    "stiffness_from_tangent": (
+        "1",
+        "1: K at the native samples is the run's stored tangent dF/dd (quasi-static runs), F and K on the "
+        "grid by cubic Hermite interpolation; 0: second-order differences of F, linear interpolation",
+    ),
 }
 
 
@@ -555,11 +634,20 @@ def aggregate(contacts: Iterable[xr.Dataset | str | Path], settings: StudySettin
     k_sat_b = np.empty(n_case)
     n_native = np.empty(n_case, dtype=np.int64)
     n_run = np.empty(n_case, dtype=np.int64)
+    from_tangent = np.zeros(n_case, dtype=np.int8)
     for c, key in enumerate(expected):
         run = runs[key]
         d = run["indentation"]
         for name in grid_vars:
             grid_vars[name][c] = interp_on_grid(grid, d, run[name])
+        tangent = int(run["from_tangent"])
+        from_tangent[c] = tangent > 0
+        if tangent:
+            pairs = [("force", "stiffness")] + ([("backing_force", "backing_stiffness")] if tangent == 2 else [])
+            for f_name, k_name in pairs:
+                grid_vars[f_name][c], grid_vars[k_name][c] = hermite_on_grid(grid, d, run[f_name], run[k_name])
+            if "grid_contact_fraction" in run:
+                grid_vars["contact_fraction"][c] = run["grid_contact_fraction"]
         for name in native_vars:
             native_vars[name][c, : d.size] = run[name]
         n_native[c] = d.size
@@ -592,6 +680,7 @@ def aggregate(contacts: Iterable[xr.Dataset | str | Path], settings: StudySettin
     data["saturated_stiffness"] = var("saturated_stiffness", ("case",), k_sat)
     data["saturated_backing_stiffness"] = var("saturated_backing_stiffness", ("case",), k_sat_b)
     data["n_elements"] = var("n_elements", (), np.int64(n_el.pop()))
+    data["stiffness_from_tangent"] = var("stiffness_from_tangent", ("case",), from_tangent)
     coords = {
         "case": ("case", [case_label(*k) for k in expected], {"units": "1", "long_name": "case label material/mode/acceleration"}),
         "material": ("case", [k[0] for k in expected], {"units": "1", "long_name": "tread material preset"}),
@@ -614,7 +703,9 @@ def aggregate(contacts: Iterable[xr.Dataset | str | Path], settings: StudySettin
             ),
             "stiffness_method": (
                 "K = dF/dd by second-order three-point differences on each run's native (non-uniform) "
-                "samples, one-sided at the ends, then linear interpolation onto the common grid; "
+                "samples, one-sided at the ends, then linear interpolation onto the common grid; runs with "
+                "a stored tangent (quasi-static, stiffness_from_tangent = 1): K = the tangent dF/dd of each "
+                "solved state, F and K on the grid by cubic Hermite interpolation; "
                 "K_sat = median of the common-grid K over the saturation range"
             ),
         }

@@ -112,6 +112,11 @@ def study_greens():
     return [f"{R}/greens/{material}.nc" for material in STUDY["materials"]]
 
 
+def stiffness_spectra():
+    """K*(f; d0) files of the study materials on the study surface (rule stiffness_spectrum)."""
+    return [f"{R}/stiffness_spectrum/{STUDY_SURFACE}/{m}.nc" for m in STUDY["materials"]]
+
+
 def max_patch_elements():
     """Largest patch (elements in x and y) over the configured surfaces: the Green's tables cover it."""
     sizes = [tuple(s["patch_elements"]) for s in config["surfaces"].values()]
@@ -144,6 +149,8 @@ def all_targets():
         f"{R}/study.nc",
         f"{R}/report.md",
         *[f"{R}/figures/{name}.png" for name in STUDY_FIGURES],
+        *stiffness_spectra(),
+        f"{R}/figures/fig9_stiffness_spectrum.png",
         *loading_outputs(),
     ]
 

@@ -36,6 +36,7 @@ rule report:
         surface=f"{R}/surface/{STUDY_SURFACE}.nc",
         greens=study_greens(),
         loading=loading_outputs()[:1],
+        spectra=stiffness_spectra(),
     output:
         md=f"{R}/report.md",
     log:

@@ -10,4 +10,5 @@ pipeline.run_report(
     variants=snakemake.params.variants,
     out_md=snakemake.output.md,
     loading_nc=snakemake.input.loading[0] if snakemake.input.loading else None,
+    spectra_ncs=snakemake.input.get("spectra", []),
 )

@@ -1,0 +1,53 @@
+# Dynamic contact stiffness K*(f; d0) (SPEC 11, tyreroad.stiffness): per study material the complex
+# contact spring about the relaxed preload state, figure 9, and (rule report) a report section.
+from tyreroad.stiffness import SpectrumSettings as _SpectrumSettings
+
+# planning-time check of the section and of its frequencies against the kernel's sample rate
+STIFFNESS_SPECTRUM = config.get("stiffness_spectrum", {})
+_SpectrumSettings.from_config(STIFFNESS_SPECTRUM).frequencies(config["greens"].get("sample_rate", 51200.0))
+
+
+# plotting on the submitting host, never as a cluster job
+localrules:
+    stiffness_figure,
+
+
+rule stiffness_spectrum:
+    input:
+        surface=f"{R}/surface/{{surface}}.nc",
+        springs=f"{R}/springs/{{surface}}/{{material}}.nc",
+        greens=f"{R}/greens/{{material}}.nc",
+    output:
+        nc=f"{R}/stiffness_spectrum/{{surface}}/{{material}}.nc",
+    log:
+        f"{R}/logs/stiffness_spectrum/{{surface}}/{{material}}.log",
+    benchmark:
+        f"{R}/benchmarks/stiffness_spectrum/{{surface}}/{{material}}.tsv"
+    params:
+        material=resolved_material,
+        solver=config["solver"],
+        spectrum=STIFFNESS_SPECTRUM,
+        code=SOURCE["stiffness_spectrum"],
+    threads: 1
+    resources:  # cluster requests (tyreroad.cluster): a contact-sized job
+        mem_mb=lambda w, attempt: cluster_resources("stiffness_spectrum", config, w, attempt)["mem_mb"],
+        runtime=lambda w, attempt: cluster_resources("stiffness_spectrum", config, w, attempt)["runtime"],
+    script:
+        "../scripts/stiffness_spectrum.py"
+
+
+rule stiffness_figure:
+    input:
+        spectra=stiffness_spectra(),
+    output:
+        png=f"{R}/figures/fig9_stiffness_spectrum.png",
+    log:
+        f"{R}/logs/stiffness_figure.log",
+    params:
+        reference=STUDY["reference_material"],
+        variants=lambda w: material_variants(),
+        spectrum=STIFFNESS_SPECTRUM,
+        code=SOURCE["stiffness_figure"],
+    threads: 1
+    script:
+        "../scripts/stiffness_figure.py"
