@@ -41,12 +41,14 @@ def plot_hysteresis(loading: xr.Dataset, path) -> None:
         ax.axhline(0.0, color="0.8", lw=0.6)
         ax.legend(fontsize=7, loc="upper left")
         ax.grid(alpha=0.3)
-    for ax in axes[-1]:
-        ax.set_xlabel("indentation d [mm]")
     for ax in axes[:, 0]:
         ax.set_ylabel("total contact force F [N]")
-    for ax in list(axes.flat)[len(materials):]:
-        ax.set_visible(False)
+    for i, ax in enumerate(axes.flat):
+        if i >= len(materials):
+            ax.set_visible(False)
+        elif i + ncol >= len(materials):  # nothing drawn below this panel: it carries the x axis
+            ax.xaxis.set_tick_params(labelbottom=True)
+            ax.set_xlabel("indentation d [mm]")
     fig.suptitle("Fig. 10: load-unload cycles (quasi-static loops close on themselves: W = 0)", fontsize=10)
     fig.tight_layout()
     fig.savefig(path, dpi=130, format="png")
