@@ -83,8 +83,8 @@ def test_profile_plans_the_study(tmp_path):
     out = proc.stdout + proc.stderr
     assert proc.returncode == 0, out[-3000:]
     totals = [line.split() for line in out.splitlines() if line.startswith("total")]
-    # 5 materials x (3 + 1) runs, 5 materials x 2 cycle runs + 19 other jobs
-    assert totals and int(totals[0][1]) == 49, out[-3000:]
+    # 5 materials x (3 + 1) runs, 5 materials x 2 cycle runs, 5 stiffness spectra + 20 other jobs
+    assert totals and int(totals[0][1]) == 55, out[-3000:]
 
 
 def test_profile_requests_follow_the_rules_and_the_site(tmp_path):
@@ -98,6 +98,7 @@ def test_profile_requests_follow_the_rules_and_the_site(tmp_path):
     cluster_jobs = [(rule, res) for rule, res in jobs if rule in CLUSTER_RULES]
     assert Counter(rule for rule, _ in cluster_jobs) == {
         "prepare_surface": 1, "element_springs": 5, "greens": 5, "contact": 20, "loading_run": 10,
+        "stiffness_spectrum": 5,
     }
     for rule, res in cluster_jobs:
         # every other resource of the profile survives the site settings

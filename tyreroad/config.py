@@ -632,14 +632,16 @@ STAGE_MODULES: dict[str, tuple[str, ...]] = {
     "loading": ("log", "pipeline", "contact", "material", "loading", "hysteresis"),
     "loading_study": ("log", "pipeline", "hysteresis"),
     "hysteresis_figure": ("log", "pipeline", "plots.hysteresis"),
-    "stiffness_spectrum": ("log", "pipeline", "contact", "material", "stiffness"),
+    # stiffness imports the spectrum's helpers (greens' element FRF, the contact solve) inside its
+    # functions, so that the contact stage, which only uses its tangent, does not depend on greens.py
+    "stiffness_spectrum": ("log", "pipeline", "contact", "material", "stiffness", "greens", "loading", "springs"),
     "stiffness_figure": ("log", "pipeline", "plots.stiffness", "stiffness"),
     "sensitivity": ("log", "sensitivity"),
 }
 
 _PACKAGE_DIR = Path(__file__).resolve().parent
 #: Modules whose function-level imports are lazy dispatch, not code of every stage.
-_LAZY_DISPATCH = {"__init__", "pipeline"}
+_LAZY_DISPATCH = {"__init__", "pipeline", "stiffness"}
 
 
 def _module_file(module: str, package_dir: Path) -> Path | None:
