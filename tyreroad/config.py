@@ -460,6 +460,12 @@ def surface_plan(name: str, spec: Mapping[str, Any], base_dir: str | Path = ".")
                 )
             where = f"surfaces.{name}.field_size"
             have = f"{list(params.field_size)} m ({shape[0]} x {shape[1]} samples at {step:.4g} m)"
+        elif generator == "flat":
+            params = S._preset_params(S.FlatParameters, name, spec, S.COMMON_KEYS)
+            size = params.field_size
+            shape = (px * n, py * n) if size is None else S._grid_shape(size, step)
+            where = f"surfaces.{name}.field_size"
+            have = f"{size if size is None else list(size)} m ({shape[0]} x {shape[1]} samples at {step:.4g} m)"
         else:
             scan_spec = scans.scan_spec_from_config(name, spec, S.COMMON_KEYS)
             try:
