@@ -12,6 +12,7 @@ include: "workflow/rules/contact.smk"
 include: "workflow/rules/study.smk"
 include: "workflow/rules/loading.smk"
 include: "workflow/rules/sensitivity.smk"
+include: "workflow/rules/rolling.smk"
 
 
 rule all:

@@ -280,8 +280,9 @@ def test_aggregate_and_report_section():
     np.testing.assert_array_equal(agg["force_curve"].values[0], agg["force_curve"].values[1])
     assert np.all(np.abs(agg["rolling_loss_force"].values) < 1e-5 * agg["d0"].values[0] * 0 + 1e-4)
     assert np.all(steady_mask(runs[0]["x_c"].values, info, 2, 0.0) == runs[0]["steady"].values.astype(bool))
-    text = rolling_section(agg)
+    text = "\n".join(rolling_section(agg))
     assert "| tread | quasistatic | 5 |" in text and "| tread | quasistatic | 20 |" in text
+    assert "differs by at most 0.0e+00 of its peak" in text
 
 
 def test_static_indentation_carries_the_load():

@@ -628,6 +628,8 @@ def band_levels(signal: np.ndarray, dt: float, centres: np.ndarray, reference: f
         if fc < 2.0 / duration or fc * 10**0.05 > 0.5 / dt:
             continue
         band = (freq >= fc * 10**-0.05) & (freq < fc * 10**0.05)
+        if not band.any():
+            continue  # no frequency bin inside the band: not resolved
         p = power[band].sum()
         out[i] = 10.0 * math.log10(p / reference**2) if p > 0 else -np.inf
     return out
@@ -769,11 +771,12 @@ def aggregate_rolling(runs: Sequence[xr.Dataset], band_limits=(100.0, 5000.0)) -
     return xr.Dataset(data, coords=coords, attrs=attrs)
 
 
-def rolling_section(study: xr.Dataset) -> str:
-    """The report's section on rolling: the table per material and speed, and what it means."""
+def rolling_section(study: xr.Dataset) -> list[str]:
+    """Markdown lines of the report's section on rolling: the table per material and speed, and what it means
+    (for ``extra_sections`` of :func:`tyreroad.report.build_report`, or on its own page)."""
     lines = ["## Rolling contact (SPEC 12)", "",
-             f"A slick tyre of radius {study.attrs['radius']:g} m rolls over the {study.attrs['surface']} strip "
-             f"({study.attrs['strip_length'] * 1e3:.0f} mm). Rolling-loss force W/dx with dx = strip length; "
+             f"A slick tyre of radius {study.attrs['radius']:g} m rolls over the road strip {study.attrs['surface']} "
+             f"({study.attrs['strip_length'] * 1e3:.0f} mm long) at a fixed axle height (d0 from the wheel load). Rolling-loss force W/dx with dx = strip length; "
              "coefficient = W/dx over the steady mean force. Band levels of the force fluctuation over the steady "
              "part (dB re 1 N).", "",
              "| material | mode | v [m/s] | d0 [mm] | mean F [N] | W/dx [N] | coefficient | steady P/v [N] | "
@@ -796,4 +799,11 @@ def rolling_section(study: xr.Dataset) -> str:
         lines += ["", f"Dynamic rolling-loss coefficients span {np.nanmin(coef):.2e} to {np.nanmax(coef):.2e}; "
                   f"tread hysteresis is expected of the order of 1e-3 to 1e-2: "
                   f"{'in that range' if sensible else 'OUTSIDE that range (check the material and d0)'}."]
-    return "\n".join(lines) + "\n"
+    qs = study.where(study["mode"] == "quasistatic", drop=True)
+    for material in dict.fromkeys(qs["material"].values.astype(str)) if qs.sizes.get("case", 0) else []:
+        curves = qs["force_curve"].values[qs["material"].values.astype(str) == material]
+        if len(curves) > 1:
+            diff = np.max(np.abs(curves - curves[0])) / np.max(np.abs(curves[0]))
+            lines += ["", f"Quasi-static passes of {material} at {len(curves)} speeds: F(x_c) differs by at most "
+                      f"{diff:.1e} of its peak (no rate effect)."]
+    return lines + [""]
