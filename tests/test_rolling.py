@@ -298,3 +298,46 @@ def test_static_indentation_carries_the_load():
     assert res.force[0] == pytest.approx(60.0, rel=1e-9)
     with pytest.raises(ValueError, match="rolling.load"):
         static_indentation(z1, ex, springs, gs, 0.3, 1e9, 0.01, SolverSettings())
+
+
+# --------------------------------------------------------------------------------------------
+# Config: planning-time checks of the rolling section
+# --------------------------------------------------------------------------------------------
+def test_rolling_config_checks_name_the_key():
+    from pathlib import Path
+
+    from tyreroad import config as CFG
+
+    root = Path(__file__).resolve().parents[1]
+    base = CFG.load_config(root / "config" / "config.yaml")
+    schema = root / "workflow" / "schemas" / "config.schema.yaml"
+    CFG.validate_schema(base, schema)
+    CFG.check_config(base, base_dir=root)
+    flat = CFG.load_config(root / "config" / "config.yaml", root / "config" / "rolling-flat.yaml")
+    CFG.validate_schema(flat, schema)
+    CFG.check_config(flat, base_dir=root)
+    bad = [
+        ({"surfaces": ["nowhere"]}, r"rolling.surfaces\[0\] = 'nowhere': not a preset"),
+        ({"materials": ["tread", "rubber-x"]}, r"rolling.materials\[1\] = 'rubber-x'"),
+        ({"d0": 2e-4}, "exactly one of rolling.load"),
+        ({"pass": [0.1, -0.01]}, "x_start < x_end"),
+        ({"reference_material": "tread-rho2", "materials": ["tread"]}, "rolling.reference_material"),
+    ]
+    for change, match in bad:
+        cfg = CFG.merge(base, {"rolling": change})
+        with pytest.raises(CFG.ConfigError, match=match):
+            CFG.check_config(cfg, base_dir=root)
+    with pytest.raises(CFG.ConfigError, match="rolling.radius"):
+        CFG.validate_schema(CFG.merge(base, {"rolling": {"radius": -1.0}}), schema)
+    with pytest.raises(CFG.ConfigError, match="speed label '20.0'"):
+        CFG.check_job(base, "x.nc", {"surface": "iso10844-strip", "material": "tread", "mode": "dynamic", "speed": "20.0"})
+    CFG.check_job(base, "x.nc", {"surface": "iso10844-strip", "material": "tread", "mode": "dynamic", "speed": "20"})
+
+
+def test_flat_generator_and_strip_patch():
+    ds = prepare_surface("flat", {"generator": "flat", "patch_elements": [12, 3], "field_size": [0.02, 0.01]})
+    assert ds["z1"].shape == (12, 3) and float(np.abs(ds["z1"]).max()) == 0.0
+    assert np.isnan(float(ds["skewness"])) and float(ds["rms_height"]) == 0.0
+    assert ds.attrs["patch_selection"] == "centre"
+    with pytest.raises(ValueError, match=r"surfaces.flat.seed_x: unknown key"):
+        prepare_surface("flat", {"generator": "flat", "seed_x": 1})

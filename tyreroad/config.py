@@ -678,7 +678,7 @@ STAGE_MODULES: dict[str, tuple[str, ...]] = {
     "loading_study": ("log", "pipeline", "hysteresis"),
     "hysteresis_figure": ("log", "pipeline", "plots.hysteresis"),
     "sensitivity": ("log", "sensitivity"),
-    "rolling_run": ("log", "pipeline", "contact", "rolling"),
+    "rolling": ("log", "pipeline", "contact", "rolling"),
     "rolling_study": ("log", "pipeline", "rolling"),
     "rolling_figures": ("log", "pipeline", "plots.rolling"),
     "rolling_report": ("log", "pipeline", "rolling", "report"),

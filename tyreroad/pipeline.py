@@ -257,11 +257,10 @@ def run_report(
     variants: Mapping[str, Any],
     out_md: str | Path,
     loading_nc: str | Path | None = None,
-    rolling_nc: str | Path | None = None,
 ) -> None:
-    """``results/report.md``: the seed's claims checked against the measured numbers, the
-    hysteresis of the load-unload cycles when ``loading_nc`` (results/loading.nc) is given, and the
-    rolling section when ``rolling_nc`` (results/rolling.nc) is given."""
+    """``results/report.md``: the seed's claims checked against the measured numbers, and the
+    hysteresis of the load-unload cycles when ``loading_nc`` (results/loading.nc) is given.
+    (The rolling section is ``results/rolling.md`` of the named target ``rolling``.)"""
     from .hysteresis import hysteresis_section
     from .report import build_report, write_report
     from .study import StudySettings, open_study
@@ -269,10 +268,6 @@ def run_report(
     study = open_study(study_nc)
     settings = StudySettings.from_config(study_cfg, d_max=float(study.attrs["d_max_m"]))
     extra = [] if loading_nc is None else [hysteresis_section(io.read_dataset(loading_nc))]
-    if rolling_nc is not None:
-        from .rolling import rolling_section
-
-        extra.append(rolling_section(io.read_dataset(rolling_nc)))
     text = build_report(
         study,
         io.read_dataset(surface_nc),

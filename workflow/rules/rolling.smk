@@ -39,7 +39,7 @@ rule rolling_run:
         check=checked,
         rolling=ROLLING_PASS_CFG,
         solver=config["solver"],
-        code=SOURCE["rolling_run"],
+        code=SOURCE["rolling"],
     threads: 1
     script:
         "../scripts/rolling_run.py"
