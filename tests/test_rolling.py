@@ -276,6 +276,10 @@ def test_aggregate_and_report_section():
         res, info = solve_rolling(z1, ex, springs, None, gs, "quasistatic", v, settings, SolverSettings(), FS)
         runs.append(rolling_dataset(res, info, "quasistatic", v, settings, None, "flat", "tread"))
     agg = aggregate_rolling(runs)
+    from tyreroad.io import check_metadata
+
+    for ds in (agg, *runs):
+        check_metadata(ds)  # units and long_name on every variable (write_dataset's contract)
     assert agg.sizes["case"] == 2 and agg.sizes["band"] == 18
     np.testing.assert_array_equal(agg["force_curve"].values[0], agg["force_curve"].values[1])
     assert np.all(np.abs(agg["rolling_loss_force"].values) < 1e-5 * agg["d0"].values[0] * 0 + 1e-4)

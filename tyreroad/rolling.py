@@ -760,8 +760,8 @@ def aggregate_rolling(runs: Sequence[xr.Dataset], band_limits=(100.0, 5000.0)) -
                            a("N", "total force against x_c"))
     coords = {
         "case": ("case", np.arange(len(rows)), a("1", "case index")),
-        "material": ("case", [row["material"] for row in rows], {"long_name": "material preset"}),
-        "mode": ("case", [row["mode"] for row in rows], {"long_name": "run mode"}),
+        "material": ("case", [row["material"] for row in rows], {"units": "1", "long_name": "material preset"}),
+        "mode": ("case", [row["mode"] for row in rows], {"units": "1", "long_name": "run mode"}),
         "speed": ("case", np.array([row["speed"] for row in rows]), a("m/s", "rolling speed")),
         "band": ("band", centres, a("Hz", "1/3-octave band centre frequency")),
         "position": ("position", x_grid, a("m", "contact centre x_c")),
