@@ -284,6 +284,14 @@ def test_aggregate_and_report_section():
     np.testing.assert_array_equal(agg["force_curve"].values[0], agg["force_curve"].values[1])
     assert np.all(np.abs(agg["rolling_loss_force"].values) < 1e-5 * agg["d0"].values[0] * 0 + 1e-4)
     assert np.all(steady_mask(runs[0]["x_c"].values, info, 2, 0.0) == runs[0]["steady"].values.astype(bool))
+    # a dynamic pass whose force alternates step by step (fs/2 chatter) is flagged, never reported as physics
+    chat = runs[1].copy(deep=True)
+    chat.attrs["mode"] = "dynamic"
+    chat["force"] = chat["force"] + 5.0 * (-1.0) ** np.arange(chat.sizes["step"])
+    chat["steady"] = chat["steady"].copy(data=(runs[1]["force"].values > 0).astype(np.int8))
+    flagged = aggregate_rolling([runs[0], chat])
+    assert float(flagged["chatter"][1]) > 0.5 and float(flagged["chatter"][0]) == 0.0
+    assert "Not trustworthy: tread at 20 m/s" in "\n".join(rolling_section(flagged))
     text = "\n".join(rolling_section(agg))
     assert "| tread | quasistatic | 5 |" in text and "| tread | quasistatic | 20 |" in text
     assert "differs by at most 0.0e+00 of its peak" in text

@@ -724,6 +724,10 @@ def aggregate_rolling(runs: Sequence[xr.Dataset], band_limits=(100.0, 5000.0)) -
         levels = band_levels(fluct, dt, centres) if steady.sum() > 8 else np.full(centres.size, np.nan)
         finite = np.isfinite(levels)
         strongest = float(centres[finite][np.argmax(levels[finite])]) if finite.any() else float("nan")
+        # fs/2 chatter of the time march (a period-2 alternation, amplitude = |second difference| / 4):
+        # a numerical instability of the discrete kernel with stiff springs, never physics
+        chatter = (float(np.sqrt(np.mean((0.25 * np.diff(fluct, 2)) ** 2))) / max(float(np.std(fluct)), 1e-300)
+                   if r.attrs["mode"] == "dynamic" and fluct.size > 2 else 0.0)
         mean_f = float(r["steady_force"])
         loss = float(r["rolling_loss_force"])
         rows.append({
@@ -732,7 +736,7 @@ def aggregate_rolling(runs: Sequence[xr.Dataset], band_limits=(100.0, 5000.0)) -
             "rolling_loss_coefficient": loss / mean_f if mean_f > 0 else float("nan"),
             "work": float(r["work"]), "work_in": float(r["work_in"]), "d0": float(r["d0"]),
             "fluctuation_rms": float(np.std(fluct)) if fluct.size else float("nan"),
-            "band_level": levels, "strongest_band": strongest,
+            "band_level": levels, "strongest_band": strongest, "chatter": chatter,
             "curve": np.interp(x_grid, r["x_c"].values, f, left=0.0, right=0.0),
             "centre_offset": float(np.nanmean(r["pressure_centre"].values[steady] - r["x_c"].values[steady]))
             if steady.any() else float("nan"),
@@ -752,6 +756,8 @@ def aggregate_rolling(runs: Sequence[xr.Dataset], band_limits=(100.0, 5000.0)) -
         "fluctuation_rms": ("N", "rms of the force fluctuation over the steady part"),
         "strongest_band": ("Hz", "centre of the 1/3-octave band with the highest force level"),
         "centre_offset": ("m", "mean pressure centre minus x_c over the steady part (> 0: ahead)"),
+        "chatter": ("1", "rms of the fs/2 alternation of the force over the rms fluctuation (> 0.05: the time "
+                         "march chattered, the case is not trustworthy)"),
     }
     data = {k: ("case", np.array([row[k] for row in rows]), a(*v)) for k, v in scal.items()}
     data["band_level"] = (("case", "band"), np.array([row["band_level"] for row in rows]),
@@ -771,6 +777,10 @@ def aggregate_rolling(runs: Sequence[xr.Dataset], band_limits=(100.0, 5000.0)) -
     return xr.Dataset(data, coords=coords, attrs=attrs)
 
 
+#: Chatter measure (rms fs/2 alternation over the rms force fluctuation) above which a case is flagged.
+CHATTER_LIMIT = 0.05
+
+
 def rolling_section(study: xr.Dataset) -> list[str]:
     """Markdown lines of the report's section on rolling: the table per material and speed, and what it means
     (for ``extra_sections`` of :func:`tyreroad.report.build_report`, or on its own page)."""
@@ -786,16 +796,29 @@ def rolling_section(study: xr.Dataset) -> list[str]:
         s = study.isel(case=i)
         lv = s["band_level"].values
         top = float(np.nanmax(lv)) if np.isfinite(lv).any() else float("nan")
+        flag = " (fs/2 chatter)" if "chatter" in s and float(s["chatter"]) > CHATTER_LIMIT else ""
         lines.append(
-            f"| {s['material'].item()} | {s['mode'].item()} | {float(s['speed']):g} | {1e3 * float(s['d0']):.4f} | "
+            f"| {s['material'].item()}{flag} | {s['mode'].item()} | {float(s['speed']):g} | {1e3 * float(s['d0']):.4f} | "
             f"{float(s['steady_force']):.1f} | {float(s['rolling_loss_force']):.4g} | "
             f"{float(s['rolling_loss_coefficient']):.3e} | {float(s['steady_loss_force']):.4g} | "
             f"{1e3 * float(s['centre_offset']):.3f} | {float(s['fluctuation_rms']):.3g} | "
             f"{float(s['strongest_band']):.0f} | {top:.1f} |")
-    dyn = study.where(study["mode"] == "dynamic", drop=True)
+    bad = [i for i in range(study.sizes["case"]) if "chatter" in study and float(study["chatter"][i]) > CHATTER_LIMIT]
+    if bad:
+        names = ", ".join(f"{study['material'].values[i]} at {float(study['speed'][i]):g} m/s" for i in bad)
+        lines += ["", f"**Not trustworthy: {names}.** The force alternates from step to step (fs/2 chatter, growing "
+                  "along the pass): the time march with the discrete kernel is unstable for this material and speed "
+                  "with these springs (a numerical limit of the solver, not physics); these cases are left out of "
+                  "the range below."]
+    dyn = study.where((study["mode"] == "dynamic") & (study["chatter"] <= CHATTER_LIMIT if "chatter" in study
+                                                       else study["mode"] == "dynamic"), drop=True)
     if dyn.sizes.get("case", 0):
         coef = dyn["rolling_loss_coefficient"].values
         sensible = np.all((coef > 1e-4) & (coef < 5e-2))
+        strongest = sorted({float(v) for v in dyn["strongest_band"].values if np.isfinite(v)})
+        lines += ["", f"Strongest 1/3-octave bands of the dynamic force: {', '.join(f'{v:.0f}' for v in strongest)} Hz "
+                  f"(v / f = {', '.join(f'{1e3 * float(sp) / float(fb):.0f}' for sp, fb in zip(dyn['speed'].values, dyn['strongest_band'].values))} mm: "
+                  "a band that moves with the speed at a fixed wavelength is excited by the road texture)."]
         lines += ["", f"Dynamic rolling-loss coefficients span {np.nanmin(coef):.2e} to {np.nanmax(coef):.2e}; "
                   f"tread hysteresis is expected of the order of 1e-3 to 1e-2: "
                   f"{'in that range' if sensible else 'OUTSIDE that range (check the material and d0)'}."]
