@@ -105,7 +105,12 @@ def plot_loss(study: xr.Dataset, path) -> None:
         idx = [i for i in _cases(study, material) if str(study["mode"].values[i]) == "dynamic"]
         v = study["speed"].values[idx]
         order = np.argsort(v)
-        ax.plot(v[order], study["rolling_loss_coefficient"].values[idx][order], marker="o", label=material)
+        coef = study["rolling_loss_coefficient"].values[idx][order]
+        line, = ax.plot(v[order], coef, marker="o", label=material)
+        if "chatter" in study:  # cases whose time march chattered at fs/2 (not trustworthy): crossed out
+            bad = study["chatter"].values[idx][order] > 0.05
+            ax.plot(v[order][bad], coef[bad], ls="none", marker="x", ms=12, color="k",
+                    label=f"{material}: fs/2 chatter, not trustworthy" if bad.any() else None)
     ax.axhspan(1e-3, 1e-2, color="0.9", zorder=0, label="tread hysteresis, typical")
     ax.set_xlabel("speed v [m/s]")
     ax.set_ylabel("rolling-loss coefficient (W/dx) / F [-]")
