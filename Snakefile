@@ -13,6 +13,7 @@ include: "workflow/rules/study.smk"
 include: "workflow/rules/loading.smk"
 include: "workflow/rules/sensitivity.smk"
 include: "workflow/rules/stiffness.smk"
+include: "workflow/rules/rolling.smk"
 
 
 rule all:

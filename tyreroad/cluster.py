@@ -73,8 +73,11 @@ def _elements(config: Mapping[str, Any], surface: str) -> tuple[int, int]:
 
 
 def _greens_elements(config: Mapping[str, Any]) -> tuple[int, int]:
-    """The Green's tables cover the largest configured patch (see the workflow's max_patch_elements)."""
-    sizes = [_elements(config, name) for name in config["surfaces"]]
+    """The Green's tables cover the largest configured patch (see the workflow's max_patch_elements);
+    the rolling strips (rolling.surfaces) have their own Green's functions and do not count."""
+    strips = set(config["rolling"].get("surfaces", ["iso10844-strip"])) if "rolling" in config else set()
+    sizes = [_elements(config, name) for name in config["surfaces"] if name not in strips] or [
+        _elements(config, name) for name in config["surfaces"]]
     return max(s[0] for s in sizes), max(s[1] for s in sizes)
 
 

@@ -460,6 +460,12 @@ def surface_plan(name: str, spec: Mapping[str, Any], base_dir: str | Path = ".")
                 )
             where = f"surfaces.{name}.field_size"
             have = f"{list(params.field_size)} m ({shape[0]} x {shape[1]} samples at {step:.4g} m)"
+        elif generator == "flat":
+            params = S._preset_params(S.FlatParameters, name, spec, S.COMMON_KEYS)
+            size = params.field_size
+            shape = (px * n, py * n) if size is None else S._grid_shape(size, step)
+            where = f"surfaces.{name}.field_size"
+            have = f"{size if size is None else list(size)} m ({shape[0]} x {shape[1]} samples at {step:.4g} m)"
         else:
             scan_spec = scans.scan_spec_from_config(name, spec, S.COMMON_KEYS)
             try:
@@ -529,6 +535,36 @@ def check_config(config: Mapping[str, Any], base_dir: str | Path = ".") -> None:
     _check_package_settings(config)
     for name, spec in config["surfaces"].items():
         surface_plan(name, spec, base_dir)
+    _check_rolling(config)
+
+
+def _check_rolling(config: Mapping[str, Any]) -> None:
+    """The ``rolling`` section: its strips and materials exist, load xor d0, the pass, element sizes."""
+    rolling = config.get("rolling")
+    if rolling is None:
+        return
+    surfaces, materials = config["surfaces"], config["materials"]
+    for i, name in enumerate(rolling.get("surfaces", ["iso10844-strip"])):
+        if name not in surfaces:
+            raise ConfigError(f"rolling.surfaces[{i}] = {name!r}: not a preset in surfaces (have: {', '.join(sorted(surfaces))})")
+        c_here = float(surfaces[name].get("element_size", 1e-3))
+        c_study = float(surfaces[config["study"]["surface"]].get("element_size", 1e-3))
+        if not math.isclose(c_here, c_study, rel_tol=1e-9):
+            raise ConfigError(f"rolling.surfaces[{i}] = {name!r}: element_size {c_here:g} m differs from that of the "
+                              f"study surface ({c_study:g} m), for which the greens are computed; expected equal")
+    names = rolling.get("materials", config["study"]["materials"])
+    for i, name in enumerate(names):
+        if name not in materials:
+            raise ConfigError(f"rolling.materials[{i}] = {name!r}: not a preset in materials (have: {', '.join(sorted(materials))})")
+    ref = rolling.get("reference_material")
+    if ref is not None and ref not in names:
+        raise ConfigError(f"rolling.reference_material = {ref!r}: expected one of rolling.materials {list(names)}")
+    from .rolling import RollingSettings
+
+    try:
+        RollingSettings.from_config(rolling)
+    except ValueError as exc:
+        raise ConfigError(str(exc)) from None
 
 
 # ---------------------------------------------------------------------------------------------
@@ -570,7 +606,16 @@ def check_job(config: Mapping[str, Any], target: str, wildcards: Mapping[str, st
             f"{target}: loading {loading!r} is not a preset in loadings; expected one of: "
             f"{', '.join(sorted(config.get('loadings', {}))) or '(none defined)'}"
         )
-    if mode is not None and loading is None:
+    speed = wildcards.get("speed")
+    if speed is not None:
+        try:
+            v = float(speed)
+        except ValueError:
+            raise ConfigError(f"{target}: speed {speed!r} is not a number [m/s]") from None
+        if not math.isfinite(v) or v <= 0 or f"{v:g}" != speed:
+            raise ConfigError(f"{target}: speed label {speed!r}; expected a positive speed [m/s] written as '{{:g}}' "
+                              "(e.g. dynamic_v20.nc)")
+    if mode is not None and loading is None and speed is None:
         try:
             a = float(accel)
         except (TypeError, ValueError):
@@ -637,6 +682,10 @@ STAGE_MODULES: dict[str, tuple[str, ...]] = {
     "stiffness_spectrum": ("log", "pipeline", "contact", "material", "stiffness", "greens", "loading", "springs"),
     "stiffness_figure": ("log", "pipeline", "plots.stiffness", "stiffness"),
     "sensitivity": ("log", "sensitivity"),
+    "rolling": ("log", "pipeline", "contact", "rolling"),
+    "rolling_study": ("log", "pipeline", "rolling"),
+    "rolling_figures": ("log", "pipeline", "plots.rolling"),
+    "rolling_report": ("log", "pipeline", "rolling", "report"),
 }
 
 _PACKAGE_DIR = Path(__file__).resolve().parent

@@ -263,7 +263,8 @@ def run_report(
 ) -> None:
     """``results/report.md``: the seed's claims checked against the measured numbers; given the
     stiffness-spectrum files, the section on K*(f; d0); given ``loading_nc`` (results/loading.nc),
-    the hysteresis of the load-unload cycles."""
+    the hysteresis of the load-unload cycles. (The rolling section is ``results/rolling.md`` of the
+    named target ``rolling``.)"""
     from .hysteresis import hysteresis_section
     from .report import build_report, write_report
     from .study import StudySettings, open_study
@@ -392,3 +393,67 @@ def run_stiffness_figure(
     figure_preload = SpectrumSettings.from_config(spectrum_cfg).figure_preload
     with io.atomic_path(out_png) as tmp:
         plot_stiffness_spectrum(spectra, reference, variants, figure_preload, tmp)
+
+
+def run_rolling(
+    surface_nc: str | Path,
+    springs_nc: str | Path,
+    greens_nc: str | Path,
+    surface_name: str,
+    material_name: str,
+    mode: str,
+    speed: float,
+    rolling_cfg: Mapping[str, Any],
+    solver_cfg: Mapping[str, Any],
+    out_nc: str | Path,
+    threads: int = 1,
+) -> None:
+    """Stage ``rolling_run``: one pass of the rolling tyre over the strip (SPEC 12).
+
+    Raises
+    ------
+    ValueError
+        If the pass starts or ends with the contact on the strip; no file is written then.
+    tyreroad.contact.ContactConvergenceError
+        If a step does not converge.
+    """
+    from .contact import SolverSettings
+    from .rolling import RollingSettings, rolling_dataset, solve_rolling_run
+
+    settings = RollingSettings.from_config(rolling_cfg)
+    solver = SolverSettings.from_config(solver_cfg)
+    surface = io.read_dataset(surface_nc)
+    result, info = solve_rolling_run(surface, io.read_dataset(springs_nc), io.read_dataset(greens_nc), mode,
+                                     float(speed), settings, solver, threads)
+    ds = rolling_dataset(result, info, mode, float(speed), settings, surface, surface_name, material_name)
+    provenance = {"rolling": dict(rolling_cfg), "solver": dict(solver_cfg)}
+    io.write_dataset(ds, out_nc, provenance, stage="rolling_run", surface=surface_name, material=material_name,
+                     mode=mode)
+
+
+def run_rolling_study(rolling_ncs: Sequence[str | Path], rolling_cfg: Mapping[str, Any], out_nc: str | Path) -> None:
+    """``results/rolling.nc``: per case the steady force, rolling-loss force and coefficient, force spectra."""
+    from .rolling import RollingSettings, aggregate_rolling
+
+    settings = RollingSettings.from_config(rolling_cfg)
+    ds = aggregate_rolling([io.read_dataset(p) for p in rolling_ncs], settings.band_limits)
+    io.write_dataset(ds, out_nc, {"rolling": dict(rolling_cfg), "runs": [str(p) for p in rolling_ncs]},
+                     stage="rolling_study")
+
+
+def run_rolling_figures(rolling_nc: str | Path, map_ncs: Sequence[str | Path], outputs: Sequence[str | Path]) -> None:
+    """Figures 11-14 of the rolling study (F(x_c), spectra, rolling loss, contact map)."""
+    from .plots.rolling import plot_rolling_figures
+
+    plot_rolling_figures(io.read_dataset(rolling_nc), [io.read_dataset(p) for p in map_ncs], [str(p) for p in outputs])
+
+
+def run_rolling_report(rolling_nc: str | Path, out_md: str | Path) -> None:
+    """``results/rolling.md``: the report's rolling section (table per material and speed)."""
+    from .report import write_report
+    from .rolling import rolling_section
+
+    ds = io.read_dataset(rolling_nc)
+    lines = ["# tyreroad: rolling contact", "", *rolling_section(ds), "## Config", "", "```yaml",
+             str(ds.attrs.get("config", "")).rstrip(), "```", ""]
+    write_report("\n".join(lines), out_md)

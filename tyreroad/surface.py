@@ -12,6 +12,12 @@ Three sources of road heights are supported, selected by ``surfaces.<name>.gener
     optional monotone transform to a target skewness, for sensitivity studies.
 ``file``
     A measured scan, read by :mod:`tyreroad.scans`.
+``flat``
+    A perfectly flat road (all heights 0): the oracle road of the rolling checks (SPEC 12). Its only
+    generator key is ``field_size`` (default: the patch itself); its patch is taken at the field
+    centre unless ``patch_selection`` says otherwise (every element peak is at the top, so the
+    contact-fraction rule has nothing to select). Its skewness is undefined (NaN) and its texture
+    levels are -inf. A flat *scan file* stays an error: it is almost always a unit or export mistake.
 
 Whatever the source, the heights are put on a grid of ``element_size / samples_per_element``
 (26 samples per 1 mm element), the texture statistics of the whole field are computed by
@@ -70,6 +76,7 @@ __all__ = [
     "skew_transform",
     "generate_iso10844",
     "generate_spectral",
+    "FlatParameters",
     "element_samples",
     "element_peaks",
     "select_patch",
@@ -214,6 +221,23 @@ class SpectralParameters:
             raise ValueError(f"short_cutoff must be > 0 or null, got {self.short_cutoff!r}")
         if self.skewness is not None and not abs(self.skewness) <= 3.0:
             raise ValueError(f"skewness must lie in [-3, 3] or be null, got {self.skewness!r}")
+
+
+@dataclass(frozen=True)
+class FlatParameters:
+    """Parameters of the flat road (generator ``flat``).
+
+    Attributes
+    ----------
+    field_size : tuple of float or None
+        Size of the field in x and y [m]; None: exactly the patch.
+    """
+
+    field_size: tuple[float, float] | None = None
+
+    def __post_init__(self) -> None:
+        if self.field_size is not None:
+            _check_pair("field_size", self.field_size, positive=True)
 
 
 @dataclass(frozen=True)
@@ -678,7 +702,7 @@ def _preset_params(cls, name: str, spec: Mapping, common: Mapping) -> Any:
                 f"(allowed: {sorted(set(common) | allowed)})"
             )
         default = next(f.default for f in fields(cls) if f.name == key)
-        if isinstance(default, tuple):
+        if isinstance(default, tuple) or (key == "field_size" and value is not None):
             if not isinstance(value, (list, tuple)) or len(value) != 2 or not all(_is_number(v) for v in value):
                 raise ValueError(f"surfaces.{name}.{key}: expected a pair of numbers, got {value!r}")
             value = tuple(float(v) for v in value)
@@ -747,8 +771,12 @@ def prepare_surface(name: str, spec: Mapping, base_dir: str | Path = ".") -> xr.
     if not isinstance(spec, Mapping):
         raise ValueError(f"surfaces.{name}: expected a mapping of settings, got {type(spec).__name__}")
     generator = spec.get("generator")
-    if generator not in ("iso10844", "spectral", "file"):
-        raise ValueError(f"surfaces.{name}.generator: expected 'iso10844', 'spectral' or 'file', got {generator!r}")
+    if generator not in ("iso10844", "spectral", "file", "flat"):
+        raise ValueError(
+            f"surfaces.{name}.generator: expected 'iso10844', 'spectral', 'file' or 'flat', got {generator!r}"
+        )
+    if generator == "flat" and "patch_selection" not in spec:
+        spec = {**spec, "patch_selection": "centre"}
     c = _common(name, spec)
     n = int(c["samples_per_element"])
     step = float(c["element_size"]) / n
@@ -763,6 +791,11 @@ def prepare_surface(name: str, spec: Mapping, base_dir: str | Path = ".") -> xr.
         rng = np.random.default_rng(int(c["seed"]))
         logger.info("spectral: generating field of %.1f x %.1f mm", *(1e3 * v for v in params.field_size))
         field_h = generate_spectral(params, step, rng)
+    elif generator == "flat":
+        params = _preset_params(FlatParameters, name, spec, COMMON_KEYS)
+        px, py = (int(v) for v in selection.patch_elements)
+        shape = (px * n, py * n) if params.field_size is None else _grid_shape(params.field_size, step)
+        field_h = np.zeros(shape)
     else:
         from tyreroad import scans
 
@@ -818,7 +851,7 @@ def surface_dataset(
                        name, length_x * 1e3, baseline * 1e3)
     mpd = mean_profile_depth(h, step, baseline)
     rms = rms_height(h)
-    skew = skewness(h)
+    skew = skewness(h) if rms > 0 else float("nan")  # a flat road (generator flat) has no skewness
     wl, level = texture_level_spectrum(h, step)
 
     i0, j0, frac = select_patch(h, n, step, selection)

@@ -28,6 +28,7 @@ wildcard_constraints:
     mode=r"dynamic|quasistatic",
     accel=r"[0-9][0-9.e+\-]*",
     loading=r"[A-Za-z0-9][A-Za-z0-9.\-]*",
+    speed=r"[0-9][0-9.e+\-]*",
 
 
 # Cheap aggregation and plotting jobs run on the submitting host, never as cluster jobs.
@@ -40,6 +41,9 @@ localrules:
     report,
     loading_study,
     hysteresis_figure,
+    rolling,
+    rolling_study,
+    rolling_figures,
 
 
 # Every result, log and benchmark of this study lives under R (config key results_dir).
@@ -59,6 +63,7 @@ _TARGET_OF = {
     ("material", "surface"): f"{R}/springs/{{surface}}/{{material}}.nc",
     ("accel", "material", "mode", "surface"): f"{R}/contact/{{surface}}/{{material}}/{{mode}}_{{accel}}.nc",
     ("loading", "material", "mode", "surface"): f"{R}/loading/{{surface}}/{{material}}/{{mode}}_{{loading}}.nc",
+    ("material", "mode", "speed", "surface"): f"{R}/rolling/{{surface}}/{{material}}/{{mode}}_v{{speed}}.nc",
 }
 
 
@@ -117,9 +122,17 @@ def stiffness_spectra():
     return [f"{R}/stiffness_spectrum/{STUDY_SURFACE}/{m}.nc" for m in STUDY["materials"]]
 
 
-def max_patch_elements():
-    """Largest patch (elements in x and y) over the configured surfaces: the Green's tables cover it."""
-    sizes = [tuple(s["patch_elements"]) for s in config["surfaces"].values()]
+ROLLING = config.get("rolling", {})
+ROLLING_SURFACES = ROLLING.get("surfaces", ["iso10844-strip"]) if "rolling" in config else []
+
+
+def max_patch_elements(rolling=False):
+    """Largest patch (elements in x and y) over the configured surfaces: the Green's tables cover it.
+
+    The rolling strips (rolling.surfaces) have their own Green's functions (rolling=True), so that
+    a 150 x 20 strip does not change the study's greens files."""
+    sizes = [tuple(s["patch_elements"]) for name, s in config["surfaces"].items()
+             if (name in ROLLING_SURFACES) == rolling]
     return [max(s[0] for s in sizes), max(s[1] for s in sizes)]
 
 
@@ -156,6 +169,42 @@ def all_targets():
 
 
 STUDY_FIGURES = ["fig5_force", "fig6_stiffness", "fig7_loss", "fig8_density"]
+
+
+def fmt_speed(speed):
+    """Speed as it appears in file names: '{:g}' of the value in m/s."""
+    return f"{float(speed):g}"
+
+
+def rolling_runs():
+    """Rolling passes of the named target `rolling`: every strip and material, dynamic at each speed,
+    quasi-static at each of rolling.quasistatic_speeds."""
+    runs = []
+    for surface in ROLLING_SURFACES:
+        for material in ROLLING.get("materials", STUDY["materials"]):
+            runs += [f"{R}/rolling/{surface}/{material}/quasistatic_v{fmt_speed(v)}.nc"
+                     for v in ROLLING.get("quasistatic_speeds", [5, 30])]
+            runs += [f"{R}/rolling/{surface}/{material}/dynamic_v{fmt_speed(v)}.nc"
+                     for v in ROLLING.get("speeds", [5, 10, 20, 30])]
+    return runs
+
+
+def rolling_map_runs():
+    """The two passes of the contact map (figure 14): the reference material, quasi-static and dynamic
+    at the middle speed, on the first strip."""
+    material = ROLLING.get("reference_material", ROLLING.get("materials", STUDY["materials"])[0])
+    speeds = sorted(ROLLING.get("speeds", [5, 10, 20, 30]))
+    surface = ROLLING_SURFACES[0]
+    return [f"{R}/rolling/{surface}/{material}/quasistatic_v{fmt_speed(ROLLING.get('quasistatic_speeds', [5, 30])[0])}.nc",
+            f"{R}/rolling/{surface}/{material}/dynamic_v{fmt_speed(speeds[len(speeds) // 2])}.nc"]
+
+
+ROLLING_FIGURES = ["fig11_rolling_force", "fig12_rolling_spectra", "fig13_rolling_loss", "fig14_contact_map"]
+
+
+def rolling_targets():
+    return [*rolling_runs(), f"{R}/rolling.nc", f"{R}/rolling.md",
+            *[f"{R}/figures/{name}.png" for name in ROLLING_FIGURES]]
 
 
 # Material helpers come from the package so that the rules and the code resolve presets identically.

@@ -1,0 +1,355 @@
+"""Rolling contact (SPEC 12): the rolling loading, work and pressure centre, slow limit, paths, spectra."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from tyreroad.contact import SolverSettings
+from tyreroad.greens import greens_dataset, offset_table_index, static_element_kernel, unique_offsets
+from tyreroad.material import material_from_config
+from tyreroad.memory import TailModel
+from tyreroad.rolling import (
+    RollingPass,
+    RollingSettings,
+    aggregate_rolling,
+    band_levels,
+    pass_positions,
+    rolling_dataset,
+    rolling_section,
+    solve_rolling,
+    static_indentation,
+    steady_mask,
+    third_octave_centres,
+)
+from tyreroad.springs import SpringTable
+from tyreroad.surface import prepare_surface
+
+from test_contact import punch_tables, realistic_z1
+
+FS = 51200.0
+C = 1e-3
+TREAD = {
+    "model": "fractional_kelvin_voigt", "E0": 2.5e7, "E1": 5.0e7, "alpha": 0.24, "f1": 1000.0,
+    "poisson_ratio": 0.49, "density": 1100.0, "thickness": 0.01,
+}
+# generalised Maxwell whose longest relaxation time is 0.1 ms (the slow-limit check)
+FAST_MAXWELL = {
+    "model": "generalized_maxwell", "E_inf": 2.5e7, "moduli": [1.0e7, 1.0e7], "relaxation_times": [1.0e-4, 2.0e-5],
+    "poisson_ratio": 0.49, "density": 1100.0, "thickness": 0.01,
+}
+
+
+def _material(cfg):
+    return material_from_config("m", {"m": cfg})
+
+
+def _static_kernel(shape, material):
+    """g_static[dx, dy] of the layer for a patch of ``shape`` elements."""
+    dx, dy, index = offset_table_index(shape)
+    g = static_element_kernel(unique_offsets(shape) * C, C, material.quasi_static_modulus, material.poisson,
+                              material.thickness)
+    return g[index]
+
+
+def _flat_springs(shape, material, stiffness=None):
+    """Linear springs; default the punch of a flat element (whole area at once): k = 2 E* a, a = c / sqrt(pi)."""
+    e_star = material.quasi_static_modulus / (1 - material.poisson**2)
+    step, n = 1e-6, 1001
+    k = np.full((shape[0] * shape[1], n), 2 * e_star * C / math.sqrt(math.pi) if stiffness is None else stiffness)
+    f = k * (np.arange(n) * step)[None, :]
+    return SpringTable.checked(k, f, step, shape[0] * shape[1])
+
+
+def _flat_strip(nx, ny):
+    ds = prepare_surface("flat", {"generator": "flat", "patch_elements": [nx, ny]})
+    return ds["z1"].values, ds["element_x"].values
+
+
+@pytest.fixture(scope="module")
+def tread_greens():
+    """Time-domain greens of the default tread for strips up to 60 x 10 (with its long-memory tail)."""
+    return greens_dataset(_material(TREAD), (60, 10), C, FS, 256, 4096)
+
+
+def _kernels(ds):
+    return (ds["g"].transpose("dx", "dy", "lag").values, ds["g_static"].transpose("dx", "dy").values,
+            TailModel.from_greens(ds))
+
+
+# --------------------------------------------------------------------------------------------
+# The loading and the pass
+# --------------------------------------------------------------------------------------------
+def test_rolling_pass_free_compression_is_the_belt_parabola():
+    rng = np.random.default_rng(3)
+    z1 = rng.normal(0, 1e-4, (5, 3))
+    ex = (np.arange(5) + 0.5) * C
+    loading = RollingPass(z1, ex, 0.3, 2e-4, [1.0e-3, 2.5e-3], time=[0.0, 1e-4], speed=15.0)
+    z2 = z1.max() - 2e-4 + (ex[:, None] - 2.5e-3) ** 2 / 0.6
+    np.testing.assert_allclose(loading.free_compression(1), (z1 - z2).ravel(), atol=1e-18)
+    np.testing.assert_allclose(loading.undeformed_surface(1), np.repeat(z2[:, 0] - z1.max(), 3), atol=1e-18)
+    np.testing.assert_array_equal(loading.rest_compression(), loading.free_compression(0))
+    assert loading.describe(1) == "x_c = 2.500000e-03 m"
+    assert list(loading.prescribed()) == ["x_c"]
+    with pytest.raises(ValueError, match="element_x"):
+        RollingPass(z1, ex[:4], 0.3, 2e-4, [0.0])
+
+
+def test_pass_positions_dynamic_and_quasistatic():
+    t, x = pass_positions("dynamic", 20.0, -0.01, 0.04, FS, 1e-4)
+    np.testing.assert_allclose(np.diff(t), 1 / FS)
+    np.testing.assert_allclose(x, -0.01 + 20.0 * t, atol=1e-15)
+    assert x[-1] >= 0.04 > x[-2]
+    t5, x5 = pass_positions("quasistatic", 5.0, -0.01, 0.04, FS, 1e-4)
+    t30, x30 = pass_positions("quasistatic", 30.0, -0.01, 0.04, FS, 1e-4)
+    np.testing.assert_array_equal(x5, x30)  # the same x_c for every speed
+    np.testing.assert_allclose(t5, 6.0 * t30, rtol=1e-12)
+    assert x5.size == 501
+
+
+def test_settings_validation():
+    with pytest.raises(ValueError, match="exactly one of rolling.load"):
+        RollingSettings(load=500.0, d0=1e-4)
+    with pytest.raises(ValueError, match="x_start < x_end"):
+        RollingSettings(x_start=0.1, x_end=0.0)
+    s = RollingSettings.from_config({"radius": 0.25, "load": None, "d0": 2e-4, "pass": [-0.02, 0.2]})
+    assert (s.radius, s.d0, s.x_start, s.x_end) == (0.25, 2e-4, -0.02, 0.2)
+
+
+def test_pass_that_starts_in_contact_is_an_error():
+    mat = _material(TREAD)
+    z1, ex = _flat_strip(12, 3)
+    springs = _flat_springs(z1.shape, mat)
+    gs = _static_kernel(z1.shape, mat)
+    settings = RollingSettings(load=None, d0=5e-5, x_start=0.004, x_end=0.05)
+    with pytest.raises(ValueError, match="rolling.pass: the contact is on the strip at x_start"):
+        solve_rolling(z1, ex, springs, None, gs, "quasistatic", 5.0, settings, SolverSettings(), FS)
+
+
+# --------------------------------------------------------------------------------------------
+# Must-show 1: flat road, quasi-static: W = 0 and a symmetric pressure
+# --------------------------------------------------------------------------------------------
+def test_flat_quasistatic_pass_does_no_work_and_centres_the_pressure():
+    mat = _material(TREAD)
+    z1, ex = _flat_strip(40, 6)
+    springs = _flat_springs(z1.shape, mat)
+    gs = _static_kernel(z1.shape, mat)
+    settings = RollingSettings(load=150.0, quasistatic_step=5e-5, steady_entry=0.0)  # no memory: steady once on
+    res, info = solve_rolling(z1, ex, springs, None, gs, "quasistatic", 10.0, settings, SolverSettings(), FS)
+    ds = rolling_dataset(res, info, "quasistatic", 10.0, settings, None, "flat", "tread")
+    w, w_in = float(ds["work"]), float(ds["work_in"])
+    assert w_in > 0
+    assert abs(w) <= 1e-3 * w_in, (w, w_in)
+    steady = ds["steady"].values.astype(bool)
+    assert steady.sum() > 100
+    offset = ds["pressure_centre"].values[steady] - ds["x_c"].values[steady]
+    assert np.max(np.abs(offset)) <= 0.5e-3
+    # the load is carried at the strip's centre: d0 solves F = 150 N there
+    mid = np.argmin(np.abs(res.x_c - 0.5 * (ex[0] + ex[-1])))
+    assert res.force[mid] == pytest.approx(150.0, rel=2e-3)
+    assert res.force[0] == 0 and res.force[-1] == 0
+
+
+# --------------------------------------------------------------------------------------------
+# Must-show 2: flat road, dynamic, default tread: W > 0, pressure centre ahead, steady force
+# --------------------------------------------------------------------------------------------
+def test_flat_dynamic_pass_loses_energy_with_the_pressure_ahead(tread_greens):
+    mat = _material(TREAD)
+    z1, ex = _flat_strip(60, 6)
+    springs = _flat_springs(z1.shape, mat)
+    g, gs, tail = _kernels(tread_greens)
+    settings = RollingSettings(load=None, d0=5e-5)
+    res, info = solve_rolling(z1, ex, springs, g, gs, "dynamic", 6.0, settings, SolverSettings(), FS, tail=tail)
+    assert res.force.size > 256  # a long run: the tail is in use
+    ds = rolling_dataset(res, info, "dynamic", 6.0, settings, None, "flat", "tread")
+    assert float(ds["work"]) > 0.05 * float(ds["work_in"])
+    steady = ds["steady"].values.astype(bool)
+    assert steady.sum() > 20 and ds["x_c"].values[steady][0] > 0.03  # x_c - a >= 3 h onto the strip
+    ahead = ds["pressure_centre"].values[steady] - ds["x_c"].values[steady]
+    assert np.all(ahead > 0.05e-3)  # ahead of x_c in the rolling direction (+x)
+    f = ds["force"].values[steady]
+    assert np.max(np.abs(f - f.mean())) / f.mean() <= 0.005
+    # the steady loss force (mean power / v) and W / dx agree for a flat strip
+    assert float(ds["steady_loss_force"]) == pytest.approx(float(ds["rolling_loss_force"]), rel=0.1)
+
+
+# --------------------------------------------------------------------------------------------
+# Must-show 3: slow limit
+# --------------------------------------------------------------------------------------------
+def test_slow_rolling_tends_to_the_relaxed_quasistatic_result():
+    """Linear bedding springs of 1e4 N/m (springs model ``linear``): with the full flat-punch stiffness
+    (3.7e4 N/m) this lightly damped Maxwell layer makes the time march chatter at fs / 2 (a stability
+    limit of the discrete kernel with stiff springs, not physics; the default tread does not)."""
+    mat = _material(FAST_MAXWELL)
+    shape = (20, 6)
+    greens = greens_dataset(mat, shape, C, FS, 256, 4096)
+    z1, ex = _flat_strip(*shape)
+    springs = _flat_springs(shape, mat, stiffness=1.0e4)
+    g, gs, tail = _kernels(greens)
+    assert greens.attrs["quasi_static_modulus"] == 2.5e7  # the relaxed modulus E_inf
+    v = 1.0
+    settings = RollingSettings(load=None, d0=5e-5, quasistatic_step=v / FS)
+    dyn, _ = solve_rolling(z1, ex, springs, g, gs, "dynamic", v, settings, SolverSettings(), FS, tail=tail)
+    qs, _ = solve_rolling(z1, ex, springs, None, gs, "quasistatic", v, settings, SolverSettings(), FS)
+    assert dyn.force.size == qs.force.size > 1000
+    np.testing.assert_allclose(dyn.x_c, qs.x_c, rtol=0, atol=1e-12)
+    err = np.max(np.abs(dyn.force - qs.force)) / qs.force.max()
+    assert err <= 0.01, err
+    assert err > 1e-5  # a rate effect, just small
+
+
+# --------------------------------------------------------------------------------------------
+# Must-show 4: rough road, quasi-static: no rate effect
+# --------------------------------------------------------------------------------------------
+def test_rough_quasistatic_force_does_not_depend_on_speed():
+    rng = np.random.default_rng(5)
+    shape = (30, 8)
+    mat = _material(TREAD)
+    z1 = realistic_z1(*shape, rng)
+    ex = (np.arange(shape[0]) + 0.5) * C
+    k, f, step = punch_tables(z1.size, rng)
+    springs = SpringTable.checked(k, f, step, z1.size)
+    gs = _static_kernel(shape, mat)
+    settings = RollingSettings(load=100.0)
+    runs = [solve_rolling(z1, ex, springs, None, gs, "quasistatic", v, settings, SolverSettings(), FS)
+            for v in (5.0, 30.0)]
+    (slow, i5), (fast, i30) = runs
+    assert i5["d0"] == i30["d0"]
+    np.testing.assert_array_equal(slow.x_c, fast.x_c)
+    assert np.max(np.abs(slow.force - fast.force)) <= 1e-9 * slow.force.max()
+    np.testing.assert_allclose(slow.time, 6.0 * fast.time, rtol=1e-12)
+    assert slow.force.max() > 50.0 and np.ptp(slow.contact_count) > 10
+
+
+# --------------------------------------------------------------------------------------------
+# Must-show 5: dense and FFT paths agree
+# --------------------------------------------------------------------------------------------
+def test_dense_and_fft_rolling_agree(tread_greens):
+    rng = np.random.default_rng(11)
+    shape = (30, 10)
+    z1 = realistic_z1(*shape, rng)
+    ex = (np.arange(shape[0]) + 0.5) * C
+    k, f, step = punch_tables(z1.size, rng)
+    springs = SpringTable.checked(k, f, step, z1.size)
+    g, gs, tail = _kernels(tread_greens)
+    settings = RollingSettings(load=None, d0=6e-5)
+    out = {}
+    for method in ("dense", "fft"):
+        out[method], _ = solve_rolling(z1, ex, springs, g, gs, "dynamic", 8.0, settings,
+                                       SolverSettings(method=method), FS, tail=tail)
+    dense, fft = out["dense"], out["fft"]
+    assert dense.force.size > 256
+    assert np.max(np.abs(dense.force - fft.force)) <= 1e-10 * dense.force.max()
+    np.testing.assert_allclose(fft.snapshot_force, dense.snapshot_force, rtol=0, atol=1e-10 * dense.force.max())
+
+
+# --------------------------------------------------------------------------------------------
+# Spectra and aggregation
+# --------------------------------------------------------------------------------------------
+def test_third_octave_centres_and_band_level_of_a_tone():
+    centres = third_octave_centres(100.0, 5000.0)
+    assert centres.size == 18
+    assert centres[0] == pytest.approx(100.0) and centres[-1] == pytest.approx(5011.9, rel=1e-4)
+    dt = 1 / FS
+    t = np.arange(4096) * dt
+    amp = 3.0
+    x = 500.0 + amp * np.sin(2 * np.pi * 1000.0 * t)
+    levels = band_levels(x, dt, centres)
+    i = int(np.argmin(np.abs(centres - 1000.0)))
+    # the tone's mean square A^2/2, within the Hann window's scalloping of a fraction of a dB
+    assert levels[i] == pytest.approx(10 * math.log10(amp**2 / 2), abs=0.3)
+    assert np.nanmax(np.delete(levels, i)) < levels[i] - 20
+    short = band_levels(x[:200], dt, centres)  # 3.9 ms: bands below 2 / T are not resolved
+    assert np.isnan(short[0]) and np.isfinite(short[i])
+
+
+def test_aggregate_and_report_section():
+    mat = _material(TREAD)
+    z1, ex = _flat_strip(24, 4)
+    springs = _flat_springs(z1.shape, mat)
+    gs = _static_kernel(z1.shape, mat)
+    settings = RollingSettings(load=80.0, quasistatic_step=1e-4, steady_entry=0.0)
+    runs = []
+    for v in (5.0, 20.0):
+        res, info = solve_rolling(z1, ex, springs, None, gs, "quasistatic", v, settings, SolverSettings(), FS)
+        runs.append(rolling_dataset(res, info, "quasistatic", v, settings, None, "flat", "tread"))
+    agg = aggregate_rolling(runs)
+    from tyreroad.io import check_metadata
+
+    for ds in (agg, *runs):
+        check_metadata(ds)  # units and long_name on every variable (write_dataset's contract)
+    assert agg.sizes["case"] == 2 and agg.sizes["band"] == 18
+    np.testing.assert_array_equal(agg["force_curve"].values[0], agg["force_curve"].values[1])
+    assert np.all(np.abs(agg["rolling_loss_force"].values) < 1e-5 * agg["d0"].values[0] * 0 + 1e-4)
+    assert np.all(steady_mask(runs[0]["x_c"].values, info, 2, 0.0) == runs[0]["steady"].values.astype(bool))
+    # a dynamic pass whose force alternates step by step (fs/2 chatter) is flagged, never reported as physics
+    chat = runs[1].copy(deep=True)
+    chat.attrs["mode"] = "dynamic"
+    chat["force"] = chat["force"] + 5.0 * (-1.0) ** np.arange(chat.sizes["step"])
+    chat["steady"] = chat["steady"].copy(data=(runs[1]["force"].values > 0).astype(np.int8))
+    flagged = aggregate_rolling([runs[0], chat])
+    assert float(flagged["chatter"][1]) > 2 * 0.05 and float(flagged["chatter"][0]) == 0.0
+    assert "Not trustworthy: tread at 20 m/s" in "\n".join(rolling_section(flagged))
+    text = "\n".join(rolling_section(agg))
+    assert "| tread | quasistatic | 5 |" in text and "| tread | quasistatic | 20 |" in text
+    assert "differs by at most 0.0e+00 of its peak" in text
+
+
+def test_static_indentation_carries_the_load():
+    mat = _material(TREAD)
+    z1, ex = _flat_strip(20, 4)
+    springs = _flat_springs(z1.shape, mat)
+    gs = _static_kernel(z1.shape, mat)
+    d0 = static_indentation(z1, ex, springs, gs, 0.3, 60.0, 0.01, SolverSettings())
+    loading = RollingPass(z1, ex, 0.3, d0, [0.01])
+    from tyreroad.rolling import _march
+
+    res = _march(loading, springs, gs[:, :, None], SolverSettings(), 1, None)
+    assert res.force[0] == pytest.approx(60.0, rel=1e-9)
+    with pytest.raises(ValueError, match="rolling.load"):
+        static_indentation(z1, ex, springs, gs, 0.3, 1e9, 0.01, SolverSettings())
+
+
+# --------------------------------------------------------------------------------------------
+# Config: planning-time checks of the rolling section
+# --------------------------------------------------------------------------------------------
+def test_rolling_config_checks_name_the_key():
+    from pathlib import Path
+
+    from tyreroad import config as CFG
+
+    root = Path(__file__).resolve().parents[1]
+    base = CFG.load_config(root / "config" / "config.yaml")
+    schema = root / "workflow" / "schemas" / "config.schema.yaml"
+    CFG.validate_schema(base, schema)
+    CFG.check_config(base, base_dir=root)
+    flat = CFG.load_config(root / "config" / "config.yaml", root / "config" / "rolling-flat.yaml")
+    CFG.validate_schema(flat, schema)
+    CFG.check_config(flat, base_dir=root)
+    bad = [
+        ({"surfaces": ["nowhere"]}, r"rolling.surfaces\[0\] = 'nowhere': not a preset"),
+        ({"materials": ["tread", "rubber-x"]}, r"rolling.materials\[1\] = 'rubber-x'"),
+        ({"d0": 2e-4}, "exactly one of rolling.load"),
+        ({"pass": [0.1, -0.01]}, "x_start < x_end"),
+        ({"reference_material": "tread-rho2", "materials": ["tread"]}, "rolling.reference_material"),
+    ]
+    for change, match in bad:
+        cfg = CFG.merge(base, {"rolling": change})
+        with pytest.raises(CFG.ConfigError, match=match):
+            CFG.check_config(cfg, base_dir=root)
+    with pytest.raises(CFG.ConfigError, match="rolling.radius"):
+        CFG.validate_schema(CFG.merge(base, {"rolling": {"radius": -1.0}}), schema)
+    with pytest.raises(CFG.ConfigError, match="speed label '20.0'"):
+        CFG.check_job(base, "x.nc", {"surface": "iso10844-strip", "material": "tread", "mode": "dynamic", "speed": "20.0"})
+    CFG.check_job(base, "x.nc", {"surface": "iso10844-strip", "material": "tread", "mode": "dynamic", "speed": "20"})
+
+
+def test_flat_generator_and_strip_patch():
+    ds = prepare_surface("flat", {"generator": "flat", "patch_elements": [12, 3], "field_size": [0.02, 0.01]})
+    assert ds["z1"].shape == (12, 3) and float(np.abs(ds["z1"]).max()) == 0.0
+    assert np.isnan(float(ds["skewness"])) and float(ds["rms_height"]) == 0.0
+    assert ds.attrs["patch_selection"] == "centre"
+    with pytest.raises(ValueError, match=r"surfaces.flat.seed_x: unknown key"):
+        prepare_surface("flat", {"generator": "flat", "seed_x": 1})

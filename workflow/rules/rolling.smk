@@ -1,0 +1,96 @@
+# Rolling contact (SPEC 12; tyreroad.rolling). A named target, not part of the default one:
+#   snakemake -j2 rolling  ->  {results_dir}/rolling/..., rolling.nc, rolling.md, figures 11-14.
+# The strips (rolling.surfaces) use the generic surface and springs rules, and their own Green's
+# functions sized for the largest strip: the study's greens files stay as they are.
+ROLLING_PASS_CFG = {k: v for k, v in ROLLING.items() if k not in ("surfaces", "materials", "speeds",
+                                                                   "quasistatic_speeds", "reference_material")}
+
+
+rule rolling_greens:
+    output:
+        nc=f"{R}/rolling/greens/{{material}}.nc",
+    log:
+        f"{R}/logs/rolling/greens/{{material}}.log",
+    benchmark:
+        f"{R}/benchmarks/rolling/greens/{{material}}.tsv"
+    params:
+        material=resolved_material,
+        greens=config["greens"],
+        n_elements=max_patch_elements(rolling=True) if ROLLING_SURFACES else [1, 1],
+        element_size=study_element_size(),
+        code=SOURCE["greens"],
+    threads: 1
+    script:
+        "../scripts/greens.py"
+
+
+rule rolling_run:
+    input:
+        surface=f"{R}/surface/{{surface}}.nc",
+        springs=f"{R}/springs/{{surface}}/{{material}}.nc",
+        greens=f"{R}/rolling/greens/{{material}}.nc",
+    output:
+        nc=f"{R}/rolling/{{surface}}/{{material}}/{{mode}}_v{{speed}}.nc",
+    log:
+        f"{R}/logs/rolling/{{surface}}/{{material}}/{{mode}}_v{{speed}}.log",
+    benchmark:
+        f"{R}/benchmarks/rolling/{{surface}}/{{material}}/{{mode}}_v{{speed}}.tsv"
+    params:
+        check=checked,
+        rolling=ROLLING_PASS_CFG,
+        solver=config["solver"],
+        code=SOURCE["rolling"],
+    threads: 1
+    script:
+        "../scripts/rolling_run.py"
+
+
+rule rolling_study:
+    input:
+        runs=rolling_runs(),
+    output:
+        nc=f"{R}/rolling.nc",
+    log:
+        f"{R}/logs/rolling_study.log",
+    params:
+        rolling=ROLLING_PASS_CFG,
+        code=SOURCE["rolling_study"],
+    threads: 1
+    script:
+        "../scripts/rolling_study.py"
+
+
+rule rolling_figures:
+    input:
+        study=f"{R}/rolling.nc",
+        maps=rolling_map_runs() if ROLLING_SURFACES else [],
+    output:
+        [f"{R}/figures/{name}.png" for name in ROLLING_FIGURES],
+    log:
+        f"{R}/logs/rolling_figures.log",
+    params:
+        code=SOURCE["rolling_figures"],
+    threads: 1
+    script:
+        "../scripts/rolling_figures.py"
+
+
+rule rolling_report:
+    input:
+        study=f"{R}/rolling.nc",
+    output:
+        md=f"{R}/rolling.md",
+    log:
+        f"{R}/logs/rolling_report.log",
+    params:
+        code=SOURCE["rolling_report"],
+    localrule: True
+    threads: 1
+    script:
+        "../scripts/rolling_report.py"
+
+
+rule rolling:
+    input:
+        rolling_targets() if ROLLING_SURFACES else [],
+    localrule: True
