@@ -68,6 +68,10 @@ class Springs:
         k0 = self.k0.reshape(np.shape(zeta))
         return k0 * (z + 0.5 * z * z / self.zs), np.where(zeta > 0, k0 * (1.0 + z / self.zs), 0.0)
 
+    def contact_stiffness(self):
+        """k(0+) [N/m] of every spring (the springs protocol of tyreroad.newton.solve_step)."""
+        return self.k0.ravel()
+
     def evaluate_into(self, zeta, force_out, stiffness_out):
         """The springs protocol of tyreroad.newton.solve_step (flat arrays)."""
         force_out[:], stiffness_out[:] = self(zeta)

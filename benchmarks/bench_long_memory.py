@@ -93,6 +93,10 @@ class _Springs:
         self.k0 = rng.uniform(1e4, 5e4, m)
         self.zs = 5e-5
 
+    def contact_stiffness(self):
+        """k(0+) [N/m] of every spring (the springs protocol of tyreroad.newton)."""
+        return self.k0
+
     def evaluate_into(self, zeta, force_out, stiffness_out):
         z = np.maximum(zeta, 0.0)
         force_out[:] = self.k0 * (z + 0.5 * z * z / self.zs)

@@ -228,15 +228,16 @@ def _check_study_through_slurm(slurm_cluster, tmp_path):
     assert {job["Partition"] for job in jobs} == {slurm_cluster["SLURM_PARTITION_NAME"]}
 
     # identical results: same files, same data, coordinates and attributes (but the write time)
-    files = _nc_files(local / "results")
-    assert files == _nc_files(cluster / "results")
-    assert len(files) == sum(expected_jobs.values()) + 1  # + results/study.nc
+    results = "results-test"  # results_dir of config/test.yaml
+    files = _nc_files(local / results)
+    assert files == _nc_files(cluster / results)
+    assert len(files) == sum(expected_jobs.values()) + 2  # + study.nc and loading.nc, made on the host
     for name in files:
-        with xr.open_dataset(local / "results" / name) as a, xr.open_dataset(cluster / "results" / name) as b:
+        with xr.open_dataset(local / results / name) as a, xr.open_dataset(cluster / results / name) as b:
             a.load()
             b.load()
         for ds in (a, b):
             for key in WRITE_TIME_ATTRS:
                 ds.attrs.pop(key, None)
         xr.testing.assert_identical(a, b)
-    assert (cluster / "results" / "report.md").read_text() == (local / "results" / "report.md").read_text()
+    assert (cluster / results / "report.md").read_text() == (local / results / "report.md").read_text()

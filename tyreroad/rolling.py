@@ -432,7 +432,8 @@ def static_indentation(z1, element_x, springs: SpringTable, kernel_static, radiu
 
     load = checks.real("rolling.load", load, positive=True)
     gs = np.asarray(kernel_static, dtype=float)[:, :, None]
-    zeta_max = springs.zeta_step * (springs.stiffness.shape[-1] - 1)
+    # a two-point (linear) table extends exactly beyond its grid: bound the search by 1 mm then
+    zeta_max = max(springs.zeta_step * (springs.stiffness.shape[-1] - 1), 1e-3)
 
     def force(d0):
         if d0 <= 0.0:
