@@ -67,6 +67,7 @@ __all__ = [
     "RunRecorder",
     "march",
     "build_collaborators",
+    "run_loading_path",
     "dynamic_indentation",
     "quasistatic_indentation",
     "solve_path",
@@ -490,12 +491,37 @@ def solve_path(
     """
     loading = IndentationPath(z1, indentation, time)
     springs = SpringTable.checked(stiffness, force, zeta_step, math.prod(loading.shape))
-    return _run(loading, springs, kernel, settings, threads, tail, extra_histories)
+    return run_loading_path(loading, springs, kernel, settings, threads, tail, extra_histories)
 
 
-def _run(loading, springs: SpringTable, kernel, settings: SolverSettings, threads: int, tail,
-         extra_histories: Sequence[History] = ()) -> ContactResult:
-    """Assemble the collaborators for a flat-patch loading and march."""
+def run_loading_path(loading, springs, kernel, settings: SolverSettings, threads: int = 1, tail=None,
+                     extra_histories: Sequence[History] = (), recorder=None):
+    """Assemble the collaborators for a loading on a patch and march (the entry point of every run).
+
+    Parameters
+    ----------
+    loading : Loading
+        The prescribed motion; ``loading.shape`` is the patch (nx, ny).
+    springs : SpringTable
+        One spring per element (or any object with the springs protocol of :mod:`tyreroad.newton`).
+    kernel : array_like
+        g[dx, dy, lag] [m/N]; a one-lag kernel is the quasi-static case.
+    settings : SolverSettings
+        Method, tolerance, iteration limit, long memory.
+    threads : int
+        numba threads and FFT workers.
+    tail : tyreroad.memory.TailModel, optional
+        The kernel beyond its kept lags.
+    extra_histories : sequence of History
+        Further history terms.
+    recorder : optional
+        What keeps the steps (``store(n, step, w)`` and ``result(loading[, n])``); default a
+        :class:`RunRecorder`, which for a one-lag kernel also stores the tangent stiffness dF/dd.
+
+    Returns
+    -------
+    The recorder's result (a :class:`ContactResult` for the default recorder).
+    """
     if not isinstance(settings, SolverSettings):
         raise TypeError(f"settings: expected SolverSettings, got {type(settings).__name__}")
     _set_threads(threads)
@@ -503,14 +529,16 @@ def _run(loading, springs: SpringTable, kernel, settings: SolverSettings, thread
     substrate, history = build_collaborators(kernel, shape, settings, threads, loading.n_steps, tail)
     if extra_histories:
         history = HistorySum([history, *extra_histories])
-    tangent = None
-    if np.shape(kernel)[2] == 1 and not extra_histories:
-        # a one-lag kernel: every step is a static state, whose tangent dF/dd is stored
-        from .stiffness import TangentStiffness
+    if recorder is None:
+        tangent = None
+        if np.shape(kernel)[2] == 1 and not extra_histories:
+            # a one-lag kernel: every step is a static state, whose tangent dF/dd is stored
+            from .stiffness import TangentStiffness
 
-        tangent = TangentStiffness(np.asarray(kernel)[:, :, 0], shape,
-                                   settings.resolved_method(shape[0] * shape[1]), workers=threads)
-    return march(loading, springs, substrate, history, settings, RunRecorder(loading.n_steps, shape, tangent))
+            tangent = TangentStiffness(np.asarray(kernel)[:, :, 0], shape,
+                                       settings.resolved_method(shape[0] * shape[1]), workers=threads)
+        recorder = RunRecorder(loading.n_steps, shape, tangent)
+    return march(loading, springs, substrate, history, settings, recorder)
 
 
 def dynamic_indentation(sample_rate: float, acceleration: float, d_max: float) -> tuple[np.ndarray, np.ndarray]:
@@ -665,10 +693,10 @@ def solve_loading(
     logger.info("%s run of loading %s (%s): %d steps", mode, preset.name, preset.kind, loading.n_steps)
     if mode == "dynamic":
         kernel = greens["g"].transpose("dx", "dy", "lag").values
-        result = _run(loading, springs_table, kernel, settings, threads, TailModel.from_greens(greens))
+        result = run_loading_path(loading, springs_table, kernel, settings, threads, TailModel.from_greens(greens))
         return dataclasses.replace(result, backing_force=_backing(result, greens, material))
     kernel = greens["g_static"].transpose("dx", "dy").values[:, :, None]
-    result = _run(loading, springs_table, kernel, settings, threads, None)
+    result = run_loading_path(loading, springs_table, kernel, settings, threads, None)
     return dataclasses.replace(result, backing_force=result.force.copy())
 
 

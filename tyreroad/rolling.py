@@ -58,7 +58,7 @@ import numpy as np
 import xarray as xr
 
 from . import checks
-from .contact import MODES, SolverSettings, build_collaborators, march
+from .contact import MODES, SolverSettings, run_loading_path
 from .memory import TailModel
 from .springs import SpringTable
 
@@ -409,11 +409,8 @@ class RollingRecorder:
 # --------------------------------------------------------------------------------------------
 def _march(loading: RollingPass, springs: SpringTable, kernel: np.ndarray, settings: SolverSettings,
            threads: int, tail, snapshot_steps=()) -> RollingResult:
-    from .contact import _set_threads
-
-    _set_threads(threads)
-    substrate, history = build_collaborators(kernel, loading.shape, settings, threads, loading.n_steps, tail)
-    return march(loading, springs, substrate, history, settings, RollingRecorder(loading, snapshot_steps))
+    return run_loading_path(loading, springs, kernel, settings, threads, tail,
+                            recorder=RollingRecorder(loading, snapshot_steps))
 
 
 def static_indentation(z1, element_x, springs: SpringTable, kernel_static, radius: float, load: float,
