@@ -41,9 +41,10 @@ precursor: the second half of the transform (n >= n_fft / 2) holds the causal cr
 to n_fft samples plus the ringing just before t = 0 (an alternating Nyquist ringing, because the
 fractional tread's compliance has not decayed at fs / 2). Discarding that precursor drops its sum
 (-1.85 % of g(0) at the excitation element of the default tread) from the step response; for a
-causal material (creep fit error <= 1e-2) the greens stage therefore adds the precursor's sum to
-lag 0 (a causal truncation that keeps the DC gain), so that the kept lags hold the causal creep at
-t_L (to 1e-4 of g(0)) and every later time of the step response is right, not only its limit. A
+causal material (creep fit error <= 1e-2) the greens stage therefore puts the precursor back at
+t >= 0: a correction of the first lags with the precursor's sum (the DC gain) and its spectrum up to
+0.15 fs (:func:`tyreroad.greens.precursor_correction`), so that the kept lags hold the causal creep
+at t_L (to 1e-4 of g(0)) and every later time of the step response is right, not only its limit. A
 material that is not causal itself (the seed's loss-scaled variants) has a long negative-time
 response of its own (+8 % of g(0) for eta x 0.5, -11 % for eta x 1.5, growing with the window
 rather than converging like ringing); folding that onto lag 0 would change those variants' kernels

@@ -915,15 +915,15 @@ def _decides_section(claims: Mapping[int, ClaimResult], study: xr.Dataset, setti
                 text += " K_sat does not follow E′ for every variant: the added loss modulus counts as much."
         folded = {n: int(float(ds.attrs.get("precursor_folded", 0))) for n, ds in greens.items()}
         pre = {n: float(ds["precursor_sum_fraction"]) for n, ds in greens.items() if "precursor_sum_fraction" in ds}
-        loss_names = [n for _, n in variant_members(variants, "loss", settings.materials, ref)]
+        loss_names = [n for _, n in variant_members(variants, "loss", settings.materials, ref) if n != ref]
         if pre and all(n in pre for n in loss_names) and ref in pre:
             text += (
                 " Scaling η at constant |E| breaks the Kramers–Kronig relations: the variants are not causal, and "
                 "their band-limited kernels carry a negative-time response of their own ("
                 + ", ".join(f"{n}: {_pct(pre[n])} of g(0)" for n in loss_names)
                 + f"; the causal reference's is only its band-limit ringing, {_pct(pre[ref])}). "
-                + ("The greens stage keeps the reference's ringing at lag 0 and discards the variants' own "
-                   "non-causal response, as the seed's kernel does. "
+                + ("The greens stage puts the reference's ringing back on its first lags (causal correction) and "
+                   "discards the variants' own non-causal response, as the seed's kernel does. "
                    if folded.get(ref) and not any(folded.get(n) for n in loss_names) else "")
                 + "The direction of this claim depends on that choice: folding the variants' non-causal sums onto "
                 "lag 0 as well reverses it (docs/long_memory.md records that experiment)."
