@@ -478,22 +478,13 @@ def linear_tables(n_springs: int, stiffness, zeta_step: float = 1.0e-6) -> tuple
 
 
 @njit(cache=True)
-def _anchored_force(stiffness, anchors, block, m, j, zeta_step):  # pragma: no cover - numba
-    """F_j of row m of an anchored table: the float64 anchor of j's block plus the trapezoid sum."""
-    b = j // block
-    j0 = b * block
-    f = anchors[m, b]
-    if j > j0:
-        acc = 0.5 * np.float64(stiffness[m, j0]) + 0.5 * np.float64(stiffness[m, j])
-        for i in range(j0 + 1, j):
-            acc += np.float64(stiffness[m, i])
-        f += zeta_step * acc
-    return f
+def _spring_eval_anchored(zeta, rows, stiffness, anchors, zeta_step, f_out, k_out):  # pragma: no cover - numba
+    """:func:`_spring_eval` for a float32 k table with float64 force anchors every ANCHOR_BLOCK points.
 
-
-@njit(cache=True)
-def _spring_eval_anchored(zeta, rows, stiffness, anchors, block, zeta_step, f_out, k_out):  # pragma: no cover - numba
-    """:func:`_spring_eval` for a float32 k table with float64 force anchors every ``block`` points."""
+    F_j = anchor_b + dz (k_j0 / 2 + k_{j0+1} + ... + k_{j-1} + k_j / 2), j0 = b ANCHOR_BLOCK <= j,
+    summed in float64. ANCHOR_BLOCK is a compile-time constant (a power of two: j // ANCHOR_BLOCK
+    is a shift), which measured 2-4x faster than a block size passed as an argument.
+    """
     last = stiffness.shape[1] - 1
     zeta_last = last * zeta_step
     for i in range(zeta.size):
@@ -502,10 +493,12 @@ def _spring_eval_anchored(zeta, rows, stiffness, anchors, block, zeta_step, f_ou
         if z <= 0.0:
             f_out[i] = 0.0
             k_out[i] = 0.0
-        elif z >= zeta_last:
-            k = np.float64(stiffness[m, last])
-            k_out[i] = k
-            f_out[i] = _anchored_force(stiffness, anchors, block, m, last, zeta_step) + k * (z - zeta_last)
+            continue
+        if z >= zeta_last:
+            j = last
+            t = 0.0
+            k0 = np.float64(stiffness[m, last])
+            slope = 0.0
         else:
             u = z / zeta_step
             j = int(u)
@@ -514,8 +507,20 @@ def _spring_eval_anchored(zeta, rows, stiffness, anchors, block, zeta_step, f_ou
             t = u - j
             k0 = np.float64(stiffness[m, j])
             slope = np.float64(stiffness[m, j + 1]) - k0
+        b = j // ANCHOR_BLOCK
+        j0 = b * ANCHOR_BLOCK
+        f = anchors[m, b]
+        if j > j0:
+            acc = 0.5 * (np.float64(stiffness[m, j0]) + k0)
+            for q in range(j0 + 1, j):
+                acc += np.float64(stiffness[m, q])
+            f += zeta_step * acc
+        if z >= zeta_last:
+            k_out[i] = k0
+            f_out[i] = f + k0 * (z - zeta_last)
+        else:
             k_out[i] = k0 + slope * t
-            f_out[i] = _anchored_force(stiffness, anchors, block, m, j, zeta_step) + zeta_step * t * (k0 + 0.5 * slope * t)
+            f_out[i] = f + zeta_step * t * (k0 + 0.5 * slope * t)
 
 
 @njit(cache=True)
@@ -586,13 +591,19 @@ class SpringTable:
         for an anchored table (``block`` > 0, float32 k, made by :meth:`checked`), float64 F at
         every block-th grid point, shape (M, (n_zeta - 1) // block + 1).
     block : int
-        0 for a full force table, else the grid points per force anchor.
+        0 for a full force table, else the grid points per force anchor (:data:`ANCHOR_BLOCK`).
     """
 
     zeta_step: float
     stiffness: np.ndarray
     force: np.ndarray
     block: int = 0
+
+    def __post_init__(self) -> None:
+        if self.block not in (0, ANCHOR_BLOCK):
+            raise ValueError(f"SpringTable.block must be 0 or ANCHOR_BLOCK = {ANCHOR_BLOCK}, got {self.block!r}")
+        if self.block and self.stiffness.dtype != np.float32:
+            raise ValueError(f"SpringTable: an anchored table holds float32 stiffness, got {self.stiffness.dtype}")
 
     @classmethod
     def from_dataset(cls, ds: xr.Dataset) -> "SpringTable":
@@ -701,8 +712,7 @@ class SpringTable:
 
     def _eval_flat(self, zeta, rows, force_out, stiffness_out) -> None:
         if self.block:
-            _spring_eval_anchored(zeta, rows, self.stiffness, self.force, self.block, self.zeta_step,
-                                  force_out, stiffness_out)
+            _spring_eval_anchored(zeta, rows, self.stiffness, self.force, self.zeta_step, force_out, stiffness_out)
         else:
             _spring_eval(zeta, rows, self.stiffness, self.force, self.zeta_step, force_out, stiffness_out)
 
