@@ -28,7 +28,8 @@ Variants:
     jumps by up to 6e-8 F there and k is no longer exactly dF/dzeta).
 
 Also timed: one evaluation of all springs (``SpringTable.evaluate_into``, what each Newton
-iteration calls) for each variant, median of 20 x ``--repeats`` calls.
+iteration calls) for each variant, median and min of 20 x ``--repeats`` calls (the min is the
+figure least moved by other jobs on shared cores).
 
 Each run is first warmed up untimed on a 4 x 4 corner (numba compile or cache load), then
 timed ``--repeats`` times (median). Printed per size and mode: steps, run time, Newton
@@ -260,6 +261,7 @@ def child_micro(args) -> dict:
             table.evaluate_into(zeta, f, k)
             times.append(time.perf_counter() - t0)
         out[variant] = float(np.median(times))
+        out[variant + "_min"] = float(np.min(times))
     return out
 
 
@@ -324,8 +326,9 @@ def bench_size(nx: int, ny: int, args) -> None:
     print(f"springs file: float64 {sizes['float64']:.1f} MiB, float32 {sizes['float32']:.1f} MiB (compressed)")
     micro = _spawn("micro", args, wd, nx, ny)
     if micro is not None:
-        print("one evaluation of all springs (evaluate_into, zeta uniform in -0.1 ... 0.25 mm), median: "
-              + ", ".join(f"{v} {1e6 * micro[v]:.0f} us" for v in ("float64", "float32", "naive32")), flush=True)
+        print("one evaluation of all springs (evaluate_into, zeta uniform in -0.1 ... 0.25 mm), median (min): "
+              + ", ".join(f"{v} {1e6 * micro[v]:.0f} ({1e6 * micro[v + '_min']:.0f}) us"
+                          for v in ("float64", "float32", "naive32")), flush=True)
     variants = args.variants.split(",")
     for mode in MODES:
         print(f"-- {mode}" + (f" {args.acceleration:g} m/s^2" if mode == "dynamic" else ""))

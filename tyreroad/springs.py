@@ -46,21 +46,24 @@ Because the table includes zeta = 0 with the peak sample already in contact, k j
 k(0) at zeta = 0+ (F is continuous).
 
 Table precision (config ``springs.table_precision``). ``float64`` (default) stores k and F in
-double precision. ``float32`` rounds k to single precision (relative 2^-24 = 6.0e-8) and keeps the
-contract exact for the rounded k: F is never stored in single precision for the solver. The
-springs file holds k, F and A as float32 (F the float32 rounding of the double-precision
+double precision. ``float32`` rounds k to single precision (relative <= u = 2^-24 = 6.0e-8) and
+keeps the contract exact for the rounded k: F is never interpolated from single precision. The
+springs file holds A, k and F as float32 (F the float32 rounding of the double-precision
 cumulative trapezoid of the rounded k), and the contact solver's table (:meth:`SpringTable.checked`)
-keeps k as float32 and F only at every ``ANCHOR_BLOCK``-th grid point in float64; inside a block F_j
-is the anchor plus the trapezoid sum of the float32 k, summed in float64 at evaluation. So F is the
-integral of the piecewise-linear float32 k to double-precision rounding, continuous across grid
-points, and k = dF/dzeta as Newton needs: the only cost is k's rounding, which moves F by at most
-6e-8 of F (the total force likewise). Storing F itself as float32 would not do: its rounding
-(6e-8 F) makes F jump at every grid point by up to 6e-8 F, a compression jump of 6e-8 F / k ~
-6e-8 zeta (6e-12 m at zeta = 0.1 mm), which is at the solver's 1e-12 m tolerance
-(benchmarks/bench_table_precision.py measures it). Memory per spring and grid point: 16 B
-(float64), 4 + 8 / ANCHOR_BLOCK = 4.5 B (float32), 12 B (float32 k with a full float64 F).
-Two-point tables (constant k, model ``linear``) are kept in float64 at either precision (32 B per
-spring).
+keeps k as float32 and F only at every ``ANCHOR_BLOCK``-th grid point, in float64; inside a block
+F_j is the anchor plus the trapezoid sum of the float32 k, summed in float64 at evaluation. So F
+is the integral of the piecewise-linear float32 k to double-precision rounding, continuous across
+grid points, and k = dF/dzeta as Newton needs. What it costs in F: k's rounding only, at most u of
+each spring's F and k (benchmarks/bench_table_precision.py: total force and K(d) within 6e-9 of
+float64 on the default 20 x 20 patch and on 150 x 200, same Newton iterations and residuals).
+Memory per spring and grid point: 16 B (float64), 4 + 8 / ANCHOR_BLOCK = 4.5 B (float32); one
+evaluation costs about 2.7x the float64 one (0.7 vs 0.26 ms for 30 000 springs, ~1 % of a run).
+Storing F itself as float32 (8 B per point) was measured and not taken: its rounding makes F jump
+at the grid points by up to u F, i.e. the Newton residual by up to 2.7e-11 m below d_max = 0.25 mm
+(at a quarter of those grid points by more than twice the 1e-12 m tolerance; a root that falls
+into such a jump cannot converge); the benchmark's runs converged but stopped at |R| = 3.7e-13 m
+instead of 3e-17 m. Two-point tables (constant k, model ``linear``) are kept in float64 at either
+precision (32 B per spring).
 
 References
 ----------
