@@ -470,6 +470,8 @@ def test_float32_tables_checks():
         SpringTable.checked(k32, f * (1 + 1e-6), step, 2)
     with pytest.raises(ValueError, match="cumulative trapezoid"):
         SpringTable.checked(k, f * (1 + 1e-8), step, 2)  # float64 tables keep the 1e-9 tolerance
+    with pytest.raises(ValueError, match="cumulative trapezoid"):
+        SpringTable.checked(k32.astype(float), f.astype(np.float32), step, 2)  # also with a float32 F
     bad = k32.copy()
     bad[1, 500] = np.nan
     with pytest.raises(ValueError, match="NaN or infinite"):

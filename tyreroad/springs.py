@@ -655,7 +655,8 @@ class SpringTable:
         """
         step = checks.real("zeta_step", zeta_step, positive=True)
         k_tab = _table_array(stiffness)
-        f_tab = _table_array(force)
+        # F is read as given only for a float32 k (checked, then rebuilt from k); else float64
+        f_tab = _table_array(force) if k_tab.dtype == np.float32 else np.asarray(force, dtype=float)
         if k_tab.shape != f_tab.shape:
             raise ValueError(f"spring tables: stiffness {k_tab.shape} and force {f_tab.shape} differ in shape")
         if k_tab.ndim == 3:
