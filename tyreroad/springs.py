@@ -566,8 +566,8 @@ def _check_tables(k, f, step, block, anchors):  # pragma: no cover - numba
     return 0, mismatch, scale, constant
 
 
-#: Relative tolerance of the force-table check: float64 tables, and tables with float32 values
-#: (F rounded to 2^-24 relative, and the float32 k's trapezoid against a float64 one: 2 eps32).
+#: Relative tolerance of the force-table check: float64 tables, and float32 ones (F rounded to
+#: 2^-24 relative, and the float32 k's trapezoid against a float64 one: 2 eps32 in all).
 _MISMATCH_RTOL = {np.dtype(np.float64): 1e-9, np.dtype(np.float32): 2.0 * float(np.finfo(np.float32).eps)}
 
 
@@ -639,8 +639,8 @@ class SpringTable:
         ValueError
             For a wrong shape, non-finite or negative values, or a force table that is not the
             cumulative trapezoid of the stiffness (the Newton Jacobian would not be dF/dzeta):
-            relative tolerance 1e-9 of the largest force for float64 tables, 2 eps32 = 2.4e-7
-            when k or F is float32.
+            relative tolerance 1e-9 of the largest force for a float64 k (F is then read as
+            float64), 2 eps32 = 2.4e-7 for a float32 k.
 
         Notes
         -----
