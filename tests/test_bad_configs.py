@@ -102,6 +102,7 @@ CASES = [
     ("fraction-range", "surfaces:\n  iso10844:\n    target_fraction: 0.9\n", None, "surfaces.iso10844"),
     ("spectral-cutoff", "surfaces:\n  spec: {generator: spectral, short_cutoff: 0.2, patch_elements: [6, 6]}\n",
      None, "surfaces.spec.short_cutoff"),
+    ("table-precision", "springs:\n  table_precision: float16\n", None, "springs.table_precision"),
 ]
 
 #: The first N_SNAKEMAKE cases also run through a real `snakemake -n`.

@@ -13,6 +13,7 @@ from tyreroad import io
 from tyreroad.layer import static_layer_factor
 from tyreroad.reference.hertz import geometric_overlap_force, hertz_contact_radius, hertz_force, hertz_stiffness
 from tyreroad.springs import (
+    ANCHOR_BLOCK,
     SpringModel,
     SpringTable,
     _kernel_m,
@@ -318,6 +319,8 @@ def test_spring_model_config():
     m = SpringModel.from_config({"model": "sum_of_spots", "modulus": 1.5e7})
     assert (m.model, m.zeta_max, m.zeta_step, m.modulus, m.linear_stiffness) == ("sum_of_spots", 1e-3, 1e-6, 1.5e7, 1e5)
     assert m.n_zeta == 1001
+    assert m.table_precision == "float64"
+    assert SpringModel.from_config({"table_precision": "float32"}).table_precision == "float32"
     assert resolve_spring_modulus(m, 2.2e7) == 1.5e7
     assert resolve_spring_modulus(SpringModel.from_config({}), 2.2e7) == 2.2e7
     bad = [
@@ -330,6 +333,8 @@ def test_spring_model_config():
         ({"linear_stiffness": 0}, "springs.linear_stiffness"),
         ({"linear_stiffness": "1.0e5"}, "1.0e\\+5"),
         ({"stiffness": 1}, "unknown key"),
+        ({"table_precision": "float16"}, "springs.table_precision = 'float16': expected one of float64, float32"),
+        ({"table_precision": 32}, "springs.table_precision"),
     ]
     for section, match in bad:
         with pytest.raises((ValueError, TypeError), match=match):
@@ -360,3 +365,166 @@ def test_plot_springs_writes_png(patch_springs, tmp_path):
     path = tmp_path / "springs.png.tmp"  # the workflow passes a temporary name
     plot_springs(patch_springs, path)
     assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and path.stat().st_size > 20_000
+
+
+# ----------------------------------------------------------------------------------------------
+# float32 tables (springs.table_precision)
+# ----------------------------------------------------------------------------------------------
+#: Unit round-off of float32: the largest relative rounding of a stored k value.
+U32 = float(np.finfo(np.float32).eps) / 2
+
+
+def _contract_reference(zeta, k_tab, step):
+    """Plain-numpy F, k of the contract for float64 tables k_tab (M, n), F its cumulative trapezoid."""
+    k_tab = np.asarray(k_tab, dtype=float)
+    f_tab = integrate.cumulative_trapezoid(k_tab, dx=step, axis=-1, initial=0.0)
+    rows = np.arange(k_tab.shape[0])[:, None]
+    last = k_tab.shape[1] - 1
+    z = np.asarray(zeta, dtype=float)
+    zc = np.clip(z, 0.0, last * step)
+    j = np.minimum(np.floor(zc / step).astype(int), last - 1)
+    t = zc / step - j
+    k = k_tab[rows, j] * (1 - t) + k_tab[rows, j + 1] * t
+    f = f_tab[rows, j] + 0.5 * step * t * (k_tab[rows, j] + k) + k * (z - zc)
+    return np.where(z > 0, f, 0.0), np.where(z > 0, k, 0.0)
+
+
+@pytest.fixture(scope="module")
+def float32_springs(patch_springs):
+    height = rough_patch()
+    return element_springs(surface(height), SpringModel(table_precision="float32"), E_S, NU, H)
+
+
+def test_float32_springs_file_is_the_rounded_float64_one(patch_springs, float32_springs):
+    ds64, ds32 = patch_springs, float32_springs
+    io.check_metadata(ds32)
+    assert ds32.attrs["table_precision"] == "float32" and ds64.attrs["table_precision"] == "float64"
+    for name in ("area", "stiffness", "force"):
+        assert ds32[name].dtype == np.float32 and ds64[name].dtype == np.float64
+    k32 = ds32["stiffness"].values
+    np.testing.assert_array_equal(k32, ds64["stiffness"].values.astype(np.float32))
+    # F on file: the float32 rounding of the float64 trapezoid of the rounded k
+    trap = integrate.cumulative_trapezoid(k32.astype(float), dx=ds32.attrs["zeta_step"], axis=-1, initial=0.0)
+    np.testing.assert_array_equal(ds32["force"].values, trap.astype(np.float32))
+
+
+def test_float32_table_evaluates_to_float64_within_float32_rounding(patch_springs, float32_springs):
+    t64 = SpringTable.from_dataset(patch_springs)
+    raw = SpringTable.from_dataset(float32_springs)
+    m, n = 9, raw.stiffness.shape[-1]
+    c64 = SpringTable.checked(t64.stiffness, t64.force, t64.zeta_step, m)
+    c32 = SpringTable.checked(raw.stiffness, raw.force, raw.zeta_step, m)
+    # the solver reads the float32 k in place (no float64 copy) and F as float64 anchors
+    assert c32.block == ANCHOR_BLOCK and c32.stiffness.dtype == np.float32
+    assert np.shares_memory(c32.stiffness, raw.stiffness)
+    assert c32.force.dtype == np.float64 and c32.force.shape == (m, (n - 1) // ANCHOR_BLOCK + 1)
+    assert c32.nbytes == m * (4 * n + 8 * ((n - 1) // ANCHOR_BLOCK + 1))
+    assert c64.nbytes / c32.nbytes == pytest.approx(16 / (4 + 8 / ANCHOR_BLOCK), rel=0.01)
+
+    step = raw.zeta_step
+    rng = np.random.default_rng(4)
+    zeta = np.concatenate([
+        rng.uniform(0.0, 1e-3, (40, m)),  # inside the grid
+        np.arange(0, n, 37)[:, None] * step * np.ones((1, m)),  # on grid points, block edges included
+        np.array([[-1e-6], [0.0], [1e-3], [1.7e-3]]) * np.ones((1, m)),
+    ]).T  # (m, points): row i is spring i
+    f64, k64 = c64.evaluate(zeta.T)
+    f32, k32 = c32.evaluate(zeta.T)
+    loaded = zeta.T > 0
+    # every k value is rounded by at most u = 2^-24 relative, and F is an integral of k with
+    # positive weights: both within u (a wrong factor or a float32 F would show far above)
+    rel_f = np.abs(f32 - f64)[loaded] / f64[loaded]
+    rel_k = np.abs(k32 - k64)[loaded] / k64[loaded]
+    assert rel_f.max() <= U32 * (1 + 1e-6) and rel_k.max() <= U32 * (1 + 1e-6)
+    assert rel_k.max() > 0.05 * U32  # the tables are rounded, not float64 in disguise
+    assert np.all(f32[~loaded] == 0) and np.all(k32[~loaded] == 0)
+    # and exactly the contract for the rounded k (the anchored kernel against plain numpy)
+    f_ref, k_ref = _contract_reference(zeta, raw.stiffness.reshape(m, n), step)
+    np.testing.assert_allclose(f32, f_ref.T, rtol=1e-13, atol=0)
+    np.testing.assert_allclose(k32, k_ref.T, rtol=1e-15, atol=0)
+    f_grid = integrate.cumulative_trapezoid(raw.stiffness.reshape(m, n).astype(float), dx=step, axis=-1, initial=0.0)
+    np.testing.assert_allclose(c32.force_table(), f_grid, rtol=1e-13, atol=0)
+    # evaluate_into (the Newton form) gives the same values
+    f_into, k_into = np.empty(m), np.empty(m)
+    c32.evaluate_into(np.ascontiguousarray(zeta[:, 3]), f_into, k_into)
+    np.testing.assert_array_equal(f_into, f32[3])
+    np.testing.assert_array_equal(k_into, k32[3])
+    # F has no jump at grid points (k = dF/dzeta holds across them): one-sided limits agree
+    j = np.arange(1, n - 1, 7)
+    h = 1e-6 * step
+    up, _ = c32.evaluate(np.repeat((j * step + h)[:, None], m, axis=1))
+    down, _ = c32.evaluate(np.repeat((j * step - h)[:, None], m, axis=1))
+    _, k_at = c32.evaluate(np.repeat((j * step)[:, None], m, axis=1))
+    np.testing.assert_allclose(up - down, 2 * h * k_at, rtol=1e-3, atol=1e-14 * float(f64.max()))
+
+
+def test_float32_tables_checks():
+    step = 1e-6
+    k = np.linspace(1e4, 5e4, 1001)[None, :].repeat(2, axis=0)
+    k32 = k.astype(np.float32)
+    f = integrate.cumulative_trapezoid(k32.astype(float), dx=step, axis=-1, initial=0.0)
+    # F given in float32 or float64 is accepted; F off by 1e-6 relative (4x the float32 tolerance) is not
+    for force in (f.astype(np.float32), f, f * (1 + 2 * U32)):
+        assert SpringTable.checked(k32, force, step, 2).block == ANCHOR_BLOCK
+    with pytest.raises(ValueError, match="cumulative trapezoid"):
+        SpringTable.checked(k32, f * (1 + 1e-6), step, 2)
+    with pytest.raises(ValueError, match="cumulative trapezoid"):
+        SpringTable.checked(k, f * (1 + 1e-8), step, 2)  # float64 tables keep the 1e-9 tolerance
+    with pytest.raises(ValueError, match="cumulative trapezoid"):
+        SpringTable.checked(k32.astype(float), f.astype(np.float32), step, 2)  # also with a float32 F
+    bad = k32.copy()
+    bad[1, 500] = np.nan
+    with pytest.raises(ValueError, match="NaN or infinite"):
+        SpringTable.checked(bad, f, step, 2)
+    bad[1, 500] = -1.0
+    with pytest.raises(ValueError, match=">= 0"):
+        SpringTable.checked(bad, f, step, 2)
+
+
+def test_float32_linear_springs_keep_two_float64_points():
+    ds = element_springs(surface(rough_patch(1)), SpringModel(model="linear", linear_stiffness=3e5,
+                                                              table_precision="float32"), E_S, NU, H)
+    assert ds["stiffness"].dtype == np.float32
+    table = SpringTable.from_dataset(ds)
+    c = SpringTable.checked(table.stiffness, table.force, table.zeta_step, 1)
+    assert c.block == 0 and c.stiffness.shape == (1, 2) and c.stiffness.dtype == np.float64
+    f, k = c.evaluate([[2.5e-7], [2e-3]])
+    np.testing.assert_allclose(k[:, 0], [3e5, 3e5], rtol=0)  # 3e5 is a float32 number
+    np.testing.assert_allclose(f[:, 0], [3e5 * 2.5e-7, 3e5 * 2e-3], rtol=1e-14)
+
+
+def test_float32_contact_runs_agree_with_float64(patch_springs, float32_springs):
+    """Quasi-static and dynamic runs on the 3 x 3 rough patch: forces and K within 10 u.
+
+    Rounding k by at most u = 6e-8 moves each spring's F and k by at most u, and the solved
+    state by as much: F(d) and K(d) agree to a few u (the bound allows 10 u), and Newton
+    converges to the same tolerance in the same iterations (+-1).
+    """
+    from test_contact import realistic_kernel
+
+    from tyreroad.contact import SolverSettings, solve_dynamic, solve_quasistatic
+
+    rng = np.random.default_rng(18)
+    z1 = -rng.exponential(0.1e-3, size=(3, 3))
+    z1 -= z1.max()
+    kernel, g_static = realistic_kernel(3, 3, 64)
+    settings = SolverSettings(d_max=2.5e-4, quasistatic_step=1e-5)
+    runs = {}
+    for name, ds in (("64", patch_springs), ("32", float32_springs)):
+        t = SpringTable.from_dataset(ds)
+        runs[name] = (
+            solve_quasistatic(z1, t.stiffness, t.force, t.zeta_step, g_static, settings),
+            solve_dynamic(z1, t.stiffness, t.force, t.zeta_step, kernel, 51200.0, 500.0, settings),
+        )
+    for r64, r32 in zip(runs["64"], runs["32"]):
+        loaded = r64.force > 0
+        assert loaded.sum() > 10
+        rel = np.abs(r32.force - r64.force)[loaded] / r64.force[loaded]
+        assert rel.max() <= 10 * U32
+        assert np.max(r32.residual) <= settings.tolerance
+        assert abs(int(r32.newton_iterations.sum()) - int(r64.newton_iterations.sum())) <= 2
+        np.testing.assert_array_equal(r32.contact_count, r64.contact_count)
+    qs64, qs32 = runs["64"][0], runs["32"][0]
+    loaded = qs64.force > 0
+    rel_k = np.abs(qs32.tangent_stiffness - qs64.tangent_stiffness)[loaded] / qs64.tangent_stiffness[loaded]
+    assert rel_k.max() <= 10 * U32

@@ -45,6 +45,26 @@ trapezoid of k; beyond the last grid point k stays at its last value and F grows
 Because the table includes zeta = 0 with the peak sample already in contact, k jumps from 0 to
 k(0) at zeta = 0+ (F is continuous).
 
+Table precision (config ``springs.table_precision``). ``float64`` (default) stores k and F in
+double precision. ``float32`` rounds k to single precision (relative <= u = 2^-24 = 6.0e-8) and
+keeps the contract exact for the rounded k: F is never interpolated from single precision. The
+springs file holds A, k and F as float32 (F the float32 rounding of the double-precision
+cumulative trapezoid of the rounded k), and the contact solver's table (:meth:`SpringTable.checked`)
+keeps k as float32 and F only at every ``ANCHOR_BLOCK``-th grid point, in float64; inside a block
+F_j is the anchor plus the trapezoid sum of the float32 k, summed in float64 at evaluation. So F
+is the integral of the piecewise-linear float32 k to double-precision rounding, continuous across
+grid points, and k = dF/dzeta as Newton needs. What it costs in F: k's rounding only, at most u of
+each spring's F and k (benchmarks/bench_table_precision.py: total force and K(d) within 6e-9 of
+float64 on the default 20 x 20 patch and on 150 x 200, same Newton iterations and residuals).
+Memory per spring and grid point: 16 B (float64), 4 + 8 / ANCHOR_BLOCK = 4.5 B (float32); one
+evaluation costs about 2.7x the float64 one (0.7 vs 0.26 ms for 30 000 springs, ~1 % of a run).
+Storing F itself as float32 (8 B per point) was measured and not taken: its rounding makes F jump
+at the grid points by up to u F, i.e. the Newton residual by up to 2.7e-11 m below d_max = 0.25 mm
+(at a quarter of those grid points by more than twice the 1e-12 m tolerance; a root that falls
+into such a jump cannot converge); the benchmark's runs converged but stopped at |R| = 3.7e-13 m
+instead of 3e-17 m. Two-point tables (constant k, model ``linear``) are kept in float64 at either
+precision (32 B per spring).
+
 References
 ----------
 Hayes, W. C., Keer, L. M., Herrmann, G., & Mockros, L. F. (1972). A mathematical analysis for
@@ -85,9 +105,16 @@ __all__ = [
     "element_springs",
     "evaluate",
     "linear_tables",
+    "TABLE_PRECISIONS",
+    "ANCHOR_BLOCK",
 ]
 
 SPRING_MODELS = ("single_punch", "sum_of_spots", "linear")
+#: Precisions of the spring tables (config ``springs.table_precision``).
+TABLE_PRECISIONS = ("float64", "float32")
+#: Grid points per float64 force anchor of a float32 table (module docstring): F_j is summed from
+#: at most ANCHOR_BLOCK - 1 stiffness values at evaluation; 8 B / 16 = 0.5 B per grid point.
+ANCHOR_BLOCK = 16
 
 #: Largest punch radius / layer thickness ratio kappa is computed for. Beyond it the punch is
 #: much wider than the layer is thick and the Nystrom and kernel resolutions below would need
@@ -108,6 +135,7 @@ _DEFAULTS: dict[str, Any] = {
     "zeta_step": 1.0e-6,
     "modulus": "quasi_static",
     "linear_stiffness": 1.0e5,
+    "table_precision": "float64",
 }
 
 
@@ -244,6 +272,9 @@ class SpringModel:
         or a value [Pa].
     linear_stiffness : float
         Stiffness of model ``linear`` [N/m]. Default 1e5.
+    table_precision : str
+        ``'float64'`` (default) or ``'float32'``: the precision of the stiffness tables (module
+        docstring: float32 rounds k to 6e-8 relative and keeps F its exact integral).
     """
 
     model: str = _DEFAULTS["model"]
@@ -251,11 +282,16 @@ class SpringModel:
     zeta_step: float = _DEFAULTS["zeta_step"]
     modulus: str | float = _DEFAULTS["modulus"]
     linear_stiffness: float = _DEFAULTS["linear_stiffness"]
+    table_precision: str = _DEFAULTS["table_precision"]
 
     def __post_init__(self) -> None:
         s = "springs"
         if self.model not in SPRING_MODELS:
             raise ValueError(f"{s}.model must be one of {', '.join(SPRING_MODELS)}; got {self.model!r}")
+        if not isinstance(self.table_precision, str) or self.table_precision not in TABLE_PRECISIONS:
+            raise ValueError(
+                f"{s}.table_precision = {self.table_precision!r}: expected one of {', '.join(TABLE_PRECISIONS)}"
+            )
         zmax = checks.real(f"{s}.zeta_max", self.zeta_max, positive=True)
         step = checks.real(f"{s}.zeta_step", self.zeta_step, positive=True)
         if zmax < 1.0e-3 * (1 - 1e-12):
@@ -445,12 +481,60 @@ def linear_tables(n_springs: int, stiffness, zeta_step: float = 1.0e-6) -> tuple
 
 
 @njit(cache=True)
-def _check_tables(k, f, step):  # pragma: no cover - numba
-    """One pass over (M, n) tables without temporaries.
+def _spring_eval_anchored(zeta, rows, stiffness, anchors, zeta_step, f_out, k_out):  # pragma: no cover - numba
+    """:func:`_spring_eval` for a float32 k table with float64 force anchors every ANCHOR_BLOCK points.
+
+    F_j = anchor_b + dz (k_j0 / 2 + k_{j0+1} + ... + k_{j-1} + k_j / 2), j0 = b ANCHOR_BLOCK <= j,
+    summed in float64. ANCHOR_BLOCK is a compile-time constant (a power of two: j // ANCHOR_BLOCK
+    is a shift), which measured 2-4x faster than a block size passed as an argument.
+    """
+    last = stiffness.shape[1] - 1
+    zeta_last = last * zeta_step
+    for i in range(zeta.size):
+        m = rows[i]
+        z = zeta[i]
+        if z <= 0.0:
+            f_out[i] = 0.0
+            k_out[i] = 0.0
+            continue
+        if z >= zeta_last:
+            j = last
+            t = 0.0
+            k0 = np.float64(stiffness[m, last])
+            slope = 0.0
+        else:
+            u = z / zeta_step
+            j = int(u)
+            if j > last - 1:
+                j = last - 1
+            t = u - j
+            k0 = np.float64(stiffness[m, j])
+            slope = np.float64(stiffness[m, j + 1]) - k0
+        b = j // ANCHOR_BLOCK
+        j0 = b * ANCHOR_BLOCK
+        f = anchors[m, b]
+        if j > j0:
+            acc = 0.5 * (np.float64(stiffness[m, j0]) + k0)
+            for q in range(j0 + 1, j):
+                acc += np.float64(stiffness[m, q])
+            f += zeta_step * acc
+        if z >= zeta_last:
+            k_out[i] = k0
+            f_out[i] = f + k0 * (z - zeta_last)
+        else:
+            k_out[i] = k0 + slope * t
+            f_out[i] = f + zeta_step * t * (k0 + 0.5 * slope * t)
+
+
+@njit(cache=True)
+def _check_tables(k, f, step, block, anchors):  # pragma: no cover - numba
+    """One pass over (M, n) tables without temporaries (k and f float64 or float32).
 
     Returns (status, mismatch, scale, constant): status 0 ok, 1 non-finite, 2 negative k;
     mismatch = max |F - cumulative trapezoid of k| [N], scale = max |cumulative trapezoid| [N];
-    constant = every row has one k value (a linear spring).
+    constant = every row has one k value (a linear spring). The trapezoid is summed in float64.
+    With ``block`` > 0 the trapezoid at every block-th grid point is written to ``anchors``
+    (M, (n - 1) // block + 1).
     """
     half = 0.5 * step
     mismatch = 0.0
@@ -458,23 +542,41 @@ def _check_tables(k, f, step):  # pragma: no cover - numba
     constant = True
     for m in range(k.shape[0]):
         acc = 0.0
+        k_prev = 0.0
+        k_first = np.float64(k[m, 0])
         for j in range(k.shape[1]):
-            kj = k[m, j]
-            fj = f[m, j]
+            kj = np.float64(k[m, j])
+            fj = np.float64(f[m, j])
             if not (np.isfinite(kj) and np.isfinite(fj)):
                 return 1, mismatch, scale, constant
             if kj < 0.0:
                 return 2, mismatch, scale, constant
             if j > 0:
-                acc += half * (kj + k[m, j - 1])
-                if kj != k[m, 0]:
+                acc += half * (kj + k_prev)
+                if kj != k_first:
                     constant = False
+            k_prev = kj
+            if block > 0 and j % block == 0:
+                anchors[m, j // block] = acc
             d = abs(fj - acc)
             if d > mismatch:
                 mismatch = d
             if acc > scale:
                 scale = acc
     return 0, mismatch, scale, constant
+
+
+#: Relative tolerance of the force-table check: float64 tables, and float32 ones (F rounded to
+#: 2^-24 relative, and the float32 k's trapezoid against a float64 one: 2 eps32 in all).
+_MISMATCH_RTOL = {np.dtype(np.float64): 1e-9, np.dtype(np.float32): 2.0 * float(np.finfo(np.float32).eps)}
+
+
+def _table_array(values) -> np.ndarray:
+    """float32 arrays stay float32 (no copy); anything else becomes float64."""
+    a = np.asarray(values)
+    if a.dtype != np.float32:
+        a = np.asarray(a, dtype=float)
+    return a
 
 
 @dataclass(frozen=True)
@@ -486,18 +588,29 @@ class SpringTable:
     zeta_step : float
         Grid step [m]; the grid is zeta_j = j * zeta_step, j = 0 .. n_zeta - 1.
     stiffness : numpy.ndarray
-        k [N/m], shape (..., n_zeta).
+        k [N/m], shape (..., n_zeta); float64, or float32 for an anchored table.
     force : numpy.ndarray
-        F [N], shape (..., n_zeta), the cumulative trapezoid of ``stiffness``.
+        F [N], the cumulative trapezoid of ``stiffness``: shape (..., n_zeta) (``block`` = 0), or,
+        for an anchored table (``block`` > 0, float32 k, made by :meth:`checked`), float64 F at
+        every block-th grid point, shape (M, (n_zeta - 1) // block + 1).
+    block : int
+        0 for a full force table, else the grid points per force anchor (:data:`ANCHOR_BLOCK`).
     """
 
     zeta_step: float
     stiffness: np.ndarray
     force: np.ndarray
+    block: int = 0
+
+    def __post_init__(self) -> None:
+        if self.block not in (0, ANCHOR_BLOCK):
+            raise ValueError(f"SpringTable.block must be 0 or ANCHOR_BLOCK = {ANCHOR_BLOCK}, got {self.block!r}")
+        if self.block and self.stiffness.dtype != np.float32:
+            raise ValueError(f"SpringTable: an anchored table holds float32 stiffness, got {self.stiffness.dtype}")
 
     @classmethod
     def from_dataset(cls, ds: xr.Dataset) -> "SpringTable":
-        """Tables of a springs dataset, shape (ex, ey, zeta)."""
+        """Tables of a springs dataset, shape (ex, ey, zeta), in the dataset's dtype (float64 or float32)."""
         zeta = ds["zeta"].values
         if zeta.size < 2 or zeta[0] != 0.0 or not np.allclose(np.diff(zeta), zeta[1] - zeta[0], rtol=1e-9, atol=0):
             raise ValueError("springs dataset: zeta must be a uniform grid starting at 0")
@@ -514,6 +627,8 @@ class SpringTable:
         ----------
         stiffness, force : array_like
             k [N/m] and F [N] on zeta_j = j * zeta_step, shape (M, n_zeta) or (nx, ny, n_zeta).
+            A float32 ``stiffness`` gives an anchored float32 table (module docstring); ``force``
+            may then be float32 or float64.
         zeta_step : float
             Grid step [m].
         n_elements : int
@@ -523,18 +638,25 @@ class SpringTable:
         ------
         ValueError
             For a wrong shape, non-finite or negative values, or a force table that is not the
-            cumulative trapezoid of the stiffness (the Newton Jacobian would not be dF/dzeta).
+            cumulative trapezoid of the stiffness (the Newton Jacobian would not be dF/dzeta):
+            relative tolerance 1e-9 of the largest force for a float64 k (F is then read as
+            float64), 2 eps32 = 2.4e-7 for a float32 k.
 
         Notes
         -----
         The checks run in one compiled pass without full-size temporaries, and the tables are not
-        copied when they are already C-contiguous float64. Tables with one constant k per row
-        (model ``linear``) are kept as their first two grid points, which give the same F and k
-        at every zeta under the interpolation contract: 32 B per spring instead of 16 n_zeta B.
+        copied when they are already C-contiguous float64, or float32 (stiffness). A float32
+        stiffness table is kept as it is, and the force as float64 anchors every
+        :data:`ANCHOR_BLOCK` grid points computed in the same pass from the float32 k, so F is
+        the exact integral of the stored k (the given F only has to agree with it to 2 eps32).
+        Tables with one constant k per row (model ``linear``) are kept as their first two grid
+        points in float64, which give the same F and k at every zeta under the interpolation
+        contract: 32 B per spring instead of 16 n_zeta B.
         """
         step = checks.real("zeta_step", zeta_step, positive=True)
-        k_tab = np.asarray(stiffness, dtype=float)
-        f_tab = np.asarray(force, dtype=float)
+        k_tab = _table_array(stiffness)
+        # F is read as given only for a float32 k (checked, then rebuilt from k); else float64
+        f_tab = _table_array(force) if k_tab.dtype == np.float32 else np.asarray(force, dtype=float)
         if k_tab.shape != f_tab.shape:
             raise ValueError(f"spring tables: stiffness {k_tab.shape} and force {f_tab.shape} differ in shape")
         if k_tab.ndim == 3:
@@ -547,22 +669,33 @@ class SpringTable:
             )
         k_tab = np.ascontiguousarray(k_tab)
         f_tab = np.ascontiguousarray(f_tab)
-        status, mismatch, scale, constant = _check_tables(k_tab, f_tab, step)
+        single = k_tab.dtype == np.float32
+        block = ANCHOR_BLOCK if single else 0
+        n_zeta = k_tab.shape[1]
+        anchors = np.empty((k_tab.shape[0], (n_zeta - 1) // block + 1) if single else (0, 0))
+        status, mismatch, scale, constant = _check_tables(k_tab, f_tab, step, block, anchors)
         if status == 1:
             raise ValueError("spring tables: stiffness/force contain NaN or infinite values")
         if status == 2:
             raise ValueError("spring tables: stiffness must be >= 0 [N/m]")
         scale = max(scale, np.finfo(float).tiny)
-        if mismatch > 1e-9 * scale:
+        rtol = max(_MISMATCH_RTOL[k_tab.dtype], _MISMATCH_RTOL[f_tab.dtype])
+        if mismatch > rtol * scale:
             raise ValueError(
                 "spring tables: force is not the cumulative trapezoid of stiffness on the zeta grid "
-                f"(max mismatch {mismatch:.3e} N, {mismatch / scale:.2e} of the largest force)"
+                f"(max mismatch {mismatch:.3e} N, {mismatch / scale:.2e} of the largest force; "
+                f"tolerance {rtol:.1e} for {k_tab.dtype}/{f_tab.dtype} tables)"
             )
-        if constant and k_tab.shape[1] > 2:
+        if constant and n_zeta > 2:
             # constant k on every row (model ``linear``): under the interpolation contract the first
             # two grid points give the same F and k at every zeta (beyond the grid k stays, F grows
             # linearly), so the solver keeps 2 points per spring instead of n_zeta
+            if single:
+                k2 = k_tab[:, :2].astype(float)
+                return cls(step, k2, _cumulative_trapezoid(k2, step))
             return cls(step, k_tab[:, :2].copy(), f_tab[:, :2].copy())
+        if single:
+            return cls(step, k_tab, anchors, block)
         return cls(step, k_tab, f_tab)
 
     @property
@@ -570,17 +703,47 @@ class SpringTable:
         """Number of springs (product of the leading table dimensions)."""
         return math.prod(self.stiffness.shape[:-1])
 
+    @property
+    def nbytes(self) -> int:
+        """Memory of the stiffness and force arrays [B]."""
+        return int(self.stiffness.nbytes + self.force.nbytes)
+
+    def force_table(self) -> np.ndarray:
+        """F [N] on every grid point, float64, shape of ``stiffness`` (computed for anchored tables)."""
+        if not self.block:
+            return np.asarray(self.force, dtype=float)
+        return _cumulative_trapezoid(self.stiffness.astype(float), self.zeta_step)
+
+    def _eval_flat(self, zeta, rows, force_out, stiffness_out) -> None:
+        if self.block:
+            _spring_eval_anchored(zeta, rows, self.stiffness, self.force, self.zeta_step, force_out, stiffness_out)
+        else:
+            _spring_eval(zeta, rows, self.stiffness, self.force, self.zeta_step, force_out, stiffness_out)
+
     def evaluate(self, zeta) -> tuple[np.ndarray, np.ndarray]:
         """(F [N], k [N/m]) at compressions ``zeta`` [m]; see :func:`evaluate`."""
-        return evaluate(zeta, self.zeta_step, self.stiffness, self.force)
+        if not self.block:
+            return evaluate(zeta, self.zeta_step, self.stiffness, self.force)
+        z = np.asarray(zeta, dtype=float)
+        if np.any(np.isnan(z)):
+            raise ValueError("evaluate: zeta contains NaN")
+        lead = self.stiffness.shape[:-1]
+        shape = np.broadcast_shapes(z.shape, lead)
+        rows = np.ascontiguousarray(np.broadcast_to(np.arange(math.prod(lead)).reshape(lead), shape).ravel())
+        z_flat = np.ascontiguousarray(np.broadcast_to(z, shape).ravel())
+        f_out = np.empty(z_flat.size)
+        k_out = np.empty(z_flat.size)
+        self._eval_flat(z_flat, rows, f_out, k_out)
+        return f_out.reshape(shape), k_out.reshape(shape)
 
     def evaluate_into(self, zeta: np.ndarray, force_out: np.ndarray, stiffness_out: np.ndarray) -> None:
-        """F and k of every spring at ``zeta`` [m], shape (M,), written into the given (M,) arrays.
+        """F and k of every spring at ``zeta`` [m], shape (M,), written into the given (M,) float64 arrays.
 
         The allocation-free form used inside Newton iterations; the tables must be (M, n_zeta)
-        and C-contiguous (as :meth:`checked` makes them).
+        and C-contiguous (as :meth:`checked` makes them). Anchored float32 tables are read as they
+        are (no float64 copy); the arithmetic is float64.
         """
-        _spring_eval(zeta, self._rows, self.stiffness, self.force, self.zeta_step, force_out, stiffness_out)
+        self._eval_flat(zeta, self._rows, force_out, stiffness_out)
 
     def contact_stiffness(self) -> np.ndarray:
         """k(0+) of every spring [N/m], shape (M,): the stiffness just after first contact."""
@@ -793,8 +956,9 @@ def element_springs(
     -------
     xarray.Dataset
         Coordinates zeta [m] (uniform from 0), ex, ey; variables area[ex, ey, zeta] [m2],
-        stiffness[ex, ey, zeta] [N/m], force[ex, ey, zeta] [N]; attributes spring_modulus [Pa],
-        poisson, thickness [m], model, zeta_step [m], connectivity (sum_of_spots).
+        stiffness[ex, ey, zeta] [N/m], force[ex, ey, zeta] [N] (float64, or float32 for
+        ``table_precision = 'float32'``); attributes spring_modulus [Pa], poisson, thickness [m],
+        model, zeta_step [m], table_precision, connectivity (sum_of_spots).
 
     Notes
     -----
@@ -841,7 +1005,14 @@ def element_springs(
     else:
         stiffness = np.full((n_ex, n_ey, zeta.size), spring_model.linear_stiffness)
         attrs["linear_stiffness"] = spring_model.linear_stiffness
-    force = _cumulative_trapezoid(stiffness, spring_model.zeta_step)
+    if spring_model.table_precision == "float32":
+        # k rounded once; F is the float64 trapezoid of the rounded k, then stored as float32 (the
+        # solver rebuilds it from k, see SpringTable.checked); A = count dx^2 rounds to 6e-8 too
+        stiffness = stiffness.astype(np.float32)
+        force = _cumulative_trapezoid(stiffness.astype(float), spring_model.zeta_step).astype(np.float32)
+        area = area.astype(np.float32)
+    else:
+        force = _cumulative_trapezoid(stiffness, spring_model.zeta_step)
 
     ex = surface_ds["ex"].values if "ex" in surface_ds.coords else np.arange(n_ex)
     ey = surface_ds["ey"].values if "ey" in surface_ds.coords else np.arange(n_ey)
@@ -870,6 +1041,7 @@ def element_springs(
             "thickness_units": "m",
             "model": spring_model.model,
             "zeta_step": spring_model.zeta_step,
+            "table_precision": spring_model.table_precision,
             **attrs,
         },
     )
