@@ -68,6 +68,7 @@ __all__ = [
     "BlockJacobiPreconditioner",
     "OffsetConvolution",
     "check_offset_kernel",
+    "compliance_cg",
     "gmres",
     "padded_shape",
 ]
@@ -153,6 +154,9 @@ class OffsetConvolution:
     symmetric : bool
         Lags 1 ... L-1 are even in dx and dy (to 1e-14 of their largest value): their spectra
         are stored real.
+    lag0_even : bool
+        Lag 0 is even in dx and dy (to 1e-14): its spectrum is stored real, and G_0 is a
+        symmetric matrix (:class:`tyreroad.newton.FFTSubstrate` then solves by conjugate gradients).
     """
 
     def __init__(self, kernel, shape, workers: int = 1):
@@ -168,7 +172,15 @@ class OffsetConvolution:
         self.spectrum_shape = (px, py // 2 + 1)
         self.n_bins = px * (py // 2 + 1)
         self.lag0 = np.ascontiguousarray(g[:, :, 0])
-        self._spec0 = self._spectra(g[:, :, 0:1])[:, 0].reshape(self.spectrum_shape)
+        g0 = self.lag0
+        odd0 = max(float(np.max(np.abs(g0 - g0[::-1]))), float(np.max(np.abs(g0 - g0[:, ::-1]))))
+        self.lag0_even = bool(odd0 <= _SYMMETRY_TOL * float(np.max(np.abs(g0))))
+        spec0 = self._spectra(g[:, :, 0:1])[:, 0].reshape(self.spectrum_shape)
+        # an even lag 0 (the layer kernel's) has a real spectrum: half the multiply's traffic
+        self._spec0 = np.ascontiguousarray(spec0.real) if self.lag0_even else spec0
+        # work buffers of the lag-0 products (the Newton-Krylov hot loop): no large temporaries per call
+        self._rows = np.zeros((nx, py))
+        self._work = np.empty(self.spectrum_shape, dtype=complex)
         # A table even in dx and in dy (SPEC 5: the layer kernel is) stays even on the periodic
         # grid, so its spectra are real: half the memory traffic of the hot loop. Tables even to
         # round-off (_SYMMETRY_TOL of max|g|) use the real spectra of their even part, which
@@ -218,15 +230,30 @@ class OffsetConvolution:
             raise ValueError(f"{name}: expected shape {self.shape} (or flat {self.shape[0] * self.shape[1]}), got {f.shape}")
         return f
 
-    def spectrum(self, forces) -> np.ndarray:
-        """Spectrum of a zero-padded force field, shape (P_x, P_y // 2 + 1), complex."""
-        f = self.check_field(forces)
-        return scipy.fft.rfft2(f, s=self.padded, workers=self.workers)
+    def spectrum(self, forces, out: np.ndarray | None = None) -> np.ndarray:
+        """Spectrum of a zero-padded force field, shape (P_x, P_y // 2 + 1), complex.
 
-    def field(self, spec: np.ndarray) -> np.ndarray:
-        """Patch values [.] of a padded-grid spectrum (the inverse of :meth:`spectrum`, cropped)."""
+        Pruned 2-D transform: the real transform along y runs over the nx rows that hold forces
+        only (the padding rows are zero), then the complex one along x, in place. ``out`` (complex,
+        the spectrum's shape) receives the result and is returned; by default a new array.
+        """
+        f = self.check_field(forces)
         nx, ny = self.shape
-        return scipy.fft.irfft2(spec, s=self.padded, workers=self.workers)[:nx, :ny]
+        spec = np.empty(self.spectrum_shape, dtype=complex) if out is None else out
+        self._rows[:, :ny] = f
+        spec[:nx] = scipy.fft.rfft(self._rows, axis=1, workers=self.workers)
+        spec[nx:] = 0.0
+        return scipy.fft.fft(spec, axis=0, overwrite_x=True, workers=self.workers)
+
+    def field(self, spec: np.ndarray, overwrite: bool = False) -> np.ndarray:
+        """Patch values [.] of a padded-grid spectrum (the inverse of :meth:`spectrum`, cropped).
+
+        Pruned like :meth:`spectrum`: the inverse along y runs over the nx patch rows only.
+        ``overwrite``: ``spec`` may be used as work space (then it is destroyed).
+        """
+        nx, ny = self.shape
+        cols = scipy.fft.ifft(spec, axis=0, overwrite_x=overwrite, workers=self.workers)
+        return scipy.fft.irfft(cols[:nx], n=self.padded[1], axis=1, workers=self.workers)[:, :ny]
 
     def apply_lag(self, forces, lag: int) -> np.ndarray:
         """One lag of the convolution: w_e = sum_m g[e - m, lag] F_m.
@@ -241,17 +268,19 @@ class OffsetConvolution:
         Returns
         -------
         numpy.ndarray
-            [m], shape (nx, ny).
+            [m], shape (nx, ny) (a view of a new array: copy or ravel before keeping it).
         """
         if isinstance(lag, bool) or not isinstance(lag, numbers.Integral) or not 0 <= lag < self.n_lags:
             raise ValueError(f"lag: expected an integer in [0, {self.n_lags - 1}], got {lag!r}")
-        spec = self.spectrum(forces)
         if lag == 0:
+            # the Newton-Krylov hot loop: the persistent work spectrum, no large temporaries
+            spec = self.spectrum(forces, out=self._work)
             spec *= self._spec0
         else:
+            spec = self.spectrum(forces)
             gl = self._lag_re[:, lag - 1] if self.symmetric else self._lag_re[:, lag - 1] + 1j * self._lag_im[:, lag - 1]
             spec *= gl.reshape(self.spectrum_shape)
-        return self.field(spec)
+        return self.field(spec, overwrite=True)
 
     @property
     def lag_spectra(self) -> tuple[np.ndarray, np.ndarray]:
@@ -327,33 +356,34 @@ def _tile_inverses(g_tile, k, bx, by, inv, loaded):  # pragma: no cover - numba
 def _tile_apply(inv, loaded, r, bx, by, out):  # pragma: no cover - numba
     """out = blockdiag(inv) r on the (nx, ny) field (tiles as in :func:`_tile_inverses`)."""
     nx, ny = r.shape
-    n_ty = inv.shape[0] // ((nx + bx - 1) // bx)
+    n_tx = (nx + bx - 1) // bx
+    n_ty = inv.shape[0] // n_tx
     nb = bx * by
     rt = np.empty(nb)
-    for t in range(inv.shape[0]):
-        tx = t // n_ty
-        ty = t - tx * n_ty
+    for tx in range(n_tx):
         x0 = tx * bx
-        y0 = ty * by
-        if not loaded[t]:
+        wx = min(bx, nx - x0)
+        for ty in range(n_ty):
+            t = tx * n_ty + ty
+            y0 = ty * by
+            wy = min(by, ny - y0)
+            if not loaded[t]:
+                for a in range(wx):
+                    for c in range(wy):
+                        out[x0 + a, y0 + c] = r[x0 + a, y0 + c]
+                continue
             for p in range(nb):
-                px = x0 + p // by
-                py = y0 + p % by
-                if px < nx and py < ny:
-                    out[px, py] = r[px, py]
-            continue
-        for p in range(nb):
-            px = x0 + p // by
-            py = y0 + p % by
-            rt[p] = r[px, py] if px < nx and py < ny else 0.0
-        for i in range(nb):
-            px = x0 + i // by
-            py = y0 + i % by
-            if px < nx and py < ny:
-                acc = 0.0
-                for j in range(nb):
-                    acc += inv[t, i, j] * rt[j]
-                out[px, py] = acc
+                rt[p] = 0.0
+            for a in range(wx):
+                for c in range(wy):
+                    rt[a * by + c] = r[x0 + a, y0 + c]
+            for a in range(wx):
+                for c in range(wy):
+                    i = a * by + c
+                    acc = 0.0
+                    for j in range(nb):
+                        acc += inv[t, i, j] * rt[j]
+                    out[x0 + a, y0 + c] = acc
 
 
 class BlockJacobiPreconditioner:
@@ -395,12 +425,15 @@ class BlockJacobiPreconditioner:
             raise np.linalg.LinAlgError("BlockJacobiPreconditioner: singular tile block")
         self._ready = True
 
-    def solve(self, residual) -> np.ndarray:
-        """Apply the tile inverses to a field [m], shape (nx, ny) or flat; returns (nx, ny)."""
+    def solve(self, residual, out: np.ndarray | None = None) -> np.ndarray:
+        """Apply the tile inverses to a field [m], shape (nx, ny) or flat; returns (nx, ny).
+
+        ``out``: a C-contiguous float array of nx ny entries to write into (returned reshaped).
+        """
         if not self._ready:
             raise RuntimeError("BlockJacobiPreconditioner.solve called before update(stiffness)")
         r = np.ascontiguousarray(np.asarray(residual, dtype=float).reshape(self.shape))
-        out = np.empty(self.shape)
+        out = np.empty(self.shape) if out is None else out.reshape(self.shape)
         _tile_apply(self._inv, self._loaded, r, self.bx, self.by, out)
         return out
 
@@ -445,6 +478,125 @@ def _combine(coef, basis, out):  # pragma: no cover - numba
         c = coef[i]
         for p in range(n):
             out[p] += c * basis[i, p]
+
+
+@njit(cache=True)
+def _cg_curvature(p, gp, kinv, q):  # pragma: no cover - numba
+    """q = G p + p / k on the loaded elements (kinv > 0), 0 elsewhere; returns p . q."""
+    s = 0.0
+    for e in range(p.size):
+        if kinv[e] > 0.0:
+            v = gp[e] + kinv[e] * p[e]
+            q[e] = v
+            s += p[e] * v
+        else:
+            q[e] = 0.0
+    return s
+
+
+@njit(cache=True)
+def _cg_update(alpha, p, gp, q, u, gu, res):  # pragma: no cover - numba
+    """u += alpha p, gu += alpha G p, res -= alpha q; returns ||res||_2^2."""
+    s = 0.0
+    for e in range(p.size):
+        u[e] += alpha * p[e]
+        gu[e] += alpha * gp[e]
+        r = res[e] - alpha * q[e]
+        res[e] = r
+        s += r * r
+    return s
+
+
+@njit(cache=True)
+def _cg_precondition(k, pre, res, z):  # pragma: no cover - numba
+    """z = k pre (the compliance-form preconditioner from the Jacobian's tile inverses); returns res . z."""
+    s = 0.0
+    for e in range(k.size):
+        v = k[e] * pre[e]
+        z[e] = v
+        s += res[e] * v
+    return s
+
+
+@njit(cache=True)
+def _cg_direction(beta, z, p):  # pragma: no cover - numba
+    """p = z + beta p, in place."""
+    for e in range(p.size):
+        p[e] = z[e] + beta * p[e]
+
+
+def compliance_cg(apply_g, psolve, stiffness: np.ndarray, rhs: np.ndarray, atol: float, max_iter: int):
+    """Preconditioned conjugate gradients on the compliance form of J delta = rhs, J = I + G diag(k).
+
+    With C = {k > 0} and the force increment u = k delta on C,
+
+        (G|C + diag(1/k_C)) u = rhs_C,    delta_C = u / k_C,    delta_I = rhs_I - (G u)_I,
+
+    (columns of J outside C are unit vectors). For a symmetric positive definite G the matrix is
+    symmetric positive definite; its residual is the linear residual rhs - J delta on C, and zero
+    elsewhere (G u is accumulated from the products). The preconditioner is k (psolve r), psolve
+    the tile inverses of J (:class:`BlockJacobiPreconditioner`): per tile (G_t + diag(1/k_t))^-1,
+    symmetric positive definite. Serial fused loops (numba) for the vector updates.
+
+    Parameters
+    ----------
+    apply_g : callable
+        v -> G v, flat fields of M entries.
+    psolve : callable
+        (r, out) -> writes (tile inverses of J) r into ``out`` (flat, M entries).
+    stiffness : numpy.ndarray
+        k >= 0 [N/m], shape (M,).
+    rhs : numpy.ndarray
+        Right-hand side [m], shape (M,).
+    atol : float
+        Stop when ||rhs_C - A u||_2 <= atol (the recursively updated residual).
+    max_iter : int
+        Products with G allowed.
+
+    Returns
+    -------
+    (delta, u, products, residual_norm), or None on a breakdown (a non-positive curvature: the
+    matrix is not positive definite).
+
+    References
+    ----------
+    Hestenes, M. R., & Stiefel, E. (1952). Methods of conjugate gradients for solving linear
+    systems. J. Res. Natl. Bur. Stand. 49(6), 409-436. doi:10.6028/jres.049.044
+    """
+    k = np.ascontiguousarray(stiffness, dtype=float)
+    n = k.size
+    mask = k > 0.0
+    u = np.zeros(n)
+    if not mask.any():
+        return rhs.copy(), u, 0, 0.0
+    gu = np.zeros(n)
+    kinv = np.zeros(n)
+    np.divide(1.0, k, out=kinv, where=mask)
+    res = np.where(mask, rhs, 0.0)
+    rnorm = _norm(res)
+    pre, z, q = np.empty(n), np.empty(n), np.empty(n)
+    psolve(res, pre)
+    rz = _cg_precondition(k, pre, res, z)
+    p = z.copy()
+    products = 0
+    while rnorm > atol and products < max_iter:
+        if not rz > 0.0:
+            return None
+        gp = np.ascontiguousarray(apply_g(p), dtype=float)
+        products += 1
+        pq = _cg_curvature(p, gp, kinv, q)
+        if not pq > 0.0:
+            return None
+        alpha = rz / pq
+        rnorm = math.sqrt(_cg_update(alpha, p, gp, q, u, gu, res))
+        if rnorm <= atol:
+            break
+        psolve(res, pre)
+        rz_new = _cg_precondition(k, pre, res, z)
+        _cg_direction(rz_new / rz, z, p)
+        rz = rz_new
+    delta = np.where(mask, kinv * u, rhs - gu)
+    return delta, u, products, rnorm
 
 
 def gmres(matvec, psolve, b: np.ndarray, atol: float, restart: int, max_iter: int):
