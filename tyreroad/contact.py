@@ -118,8 +118,9 @@ class SolverSettings:
         Add the kernel's tail beyond the kept lags (SPEC 9, :mod:`tyreroad.memory`) to runs longer
         than the kept lags (default True). Off, such a run is an error naming the lags and steps.
     krylov_forcing : float
-        Largest inexact-Newton forcing term of the ``fft`` path, 0 < eta < 1 (default 1e-6): GMRES
-        solves each Newton correction to at most this fraction of ||R||_2
+        Largest inexact-Newton forcing term of the ``fft`` path, 0 < eta < 1 (default 1e-6): the
+        Krylov solver (conjugate gradients, GMRES for kernels that are not even) solves each Newton
+        correction to at most this fraction of ||R||_2
         (:class:`tyreroad.newton.FFTSubstrate`).
     """
 
