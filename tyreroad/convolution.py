@@ -452,7 +452,8 @@ def _tile_cholesky(g_tile, k, bx, by, inv, idx, pos, count):  # pragma: no cover
 
     Tiles as in :func:`_tile_inverses`. idx[t, :count[t]] are the local indices (a by + c) of the
     loaded elements of tile t, pos[t, :count[t]] their flat indices x ny + y on the patch;
-    inv[t, :n, :n] (n = count[t]) receives B_t^-1 = L^-T L^-1.
+    inv[t] (n = count[t]) receives B_t^-1 = L^-T L^-1, symmetric, packed by rows: entry (i, j),
+    j <= i < n, at i (i + 1) / 2 + j (half the memory traffic of the apply).
     Returns False at a non-positive pivot (B_t not positive definite).
     """
     nx, ny = k.shape
@@ -499,31 +500,43 @@ def _tile_cholesky(g_tile, k, bx, by, inv, idx, pos, count):  # pragma: no cover
                     for m in range(j, i):
                         acc -= low[i, m] * linv[m, j]
                     linv[i, j] = acc / low[i, i]
-            for i in range(n):  # B^-1 = L^-T L^-1
+            for i in range(n):  # B^-1 = L^-T L^-1, lower triangle packed by rows
+                row = i * (i + 1) // 2
                 for j in range(i + 1):
                     acc = 0.0
                     for m in range(i, n):
                         acc += linv[m, i] * linv[m, j]
-                    inv[t, i, j] = acc
-                    inv[t, j, i] = acc
+                    inv[t, row + j] = acc
     return True
 
 
 @njit(cache=True)
 def _tile_loaded_apply(inv, pos, count, r, out):  # pragma: no cover - numba
-    """out = blockdiag(B_t^-1) r on the loaded elements of every tile, 0 elsewhere (flat fields)."""
-    y = np.empty(inv.shape[1])
+    """out = blockdiag(B_t^-1) r on the loaded elements of every tile, 0 elsewhere (flat fields).
+
+    inv[t] holds the symmetric B_t^-1 packed by rows (:func:`_tile_cholesky`).
+    """
+    nb = pos.shape[1]
+    y = np.empty(nb)
+    z = np.empty(nb)
     for e in range(out.size):
         out[e] = 0.0
     for t in range(inv.shape[0]):
         n = count[t]
         for j in range(n):
             y[j] = r[pos[t, j]]
+            z[j] = 0.0
         for i in range(n):
+            row = i * (i + 1) // 2
+            yi = y[i]
             acc = 0.0
-            for j in range(n):
-                acc += inv[t, i, j] * y[j]
-            out[pos[t, i]] = acc
+            for j in range(i):
+                a = inv[t, row + j]
+                acc += a * y[j]
+                z[j] += a * yi
+            z[i] += acc + inv[t, row + i] * yi
+        for i in range(n):
+            out[pos[t, i]] = z[i]
 
 
 class ComplianceBlockPreconditioner:
@@ -534,7 +547,7 @@ class ComplianceBlockPreconditioner:
     tile inverse of J of :class:`BlockJacobiPreconditioner` in compliance form), inverted through
     a Cholesky factor of the loaded elements only: symmetric positive definite, as CG needs; a
     tile with n_L loaded elements costs ~ n_L^3 to factorise and n_L^2 to apply (memory traffic
-    of its n_L^2 inverse only), tiles without contact nothing.
+    of its packed symmetric inverse, n_L (n_L + 1) / 2 numbers), tiles without contact nothing.
 
     Parameters
     ----------
@@ -555,7 +568,7 @@ class ComplianceBlockPreconditioner:
         self._g_tile = np.ascontiguousarray(g0[px[:, None] - px[None, :] + nx - 1, py[:, None] - py[None, :] + ny - 1])
         n_tiles = self.tiles[0] * self.tiles[1]
         nb = self.bx * self.by
-        self._inv = np.empty((n_tiles, nb, nb))
+        self._inv = np.empty((n_tiles, nb * (nb + 1) // 2))
         self._idx = np.zeros((n_tiles, nb), dtype=np.int64)
         self._pos = np.zeros((n_tiles, nb), dtype=np.int64)
         self._count = np.zeros(n_tiles, dtype=np.int64)
