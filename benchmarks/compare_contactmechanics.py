@@ -29,7 +29,11 @@ linear springs of 1e6, 1e8 and 1e10 N/m at 20 x 20 (dense and FFT paths, which m
 and 150 x 200 (FFT path), default settings, with Newton and Krylov counts.
 
     pip install ContactMechanics==1.8.3      # NOT muFFT: it replaces muGrid and breaks ContactMechanics
-    python benchmarks/compare_contactmechanics.py [--sizes 150x200,300x400] [--repeats 3]
+    python benchmarks/compare_contactmechanics.py [--sizes 150x200,300x400] [--repeats 3] [--baseline DIR]
+
+``--baseline DIR`` times an earlier tyreroad checkout (e.g. a git worktree of the previous
+release) in the same alternation (third row, with its time ratio and its force and tangent
+differences from this checkout).
 
 Prints figures and the issue-18 targets with "met"/"MISSED"; never fails on time.
 """
@@ -88,10 +92,19 @@ def child_tyreroad(args) -> dict:
     t0 = time.perf_counter()
     import numpy as np
 
+    import tyreroad.newton
     from tyreroad.contact import SolverSettings, solve_quasistatic
     from tyreroad.springs import linear_tables
 
     t_import = time.perf_counter() - t0
+    substrates = []  # to read the tangent solves' Krylov products (not in ContactResult)
+    init = tyreroad.newton.FFTSubstrate.__init__
+
+    def keep(self, *a, **kw):
+        init(self, *a, **kw)
+        substrates.append(self)
+
+    tyreroad.newton.FFTSubstrate.__init__ = keep
     data = np.load(args.inputs)
     z1, g_static = data["z1"], data["g_static"]
     settings = SolverSettings(method="fft")
@@ -105,6 +118,8 @@ def child_tyreroad(args) -> dict:
     t_run = time.perf_counter() - t0
     return {"import_s": t_import, "startup_s": t_start, "run_s": t_run, "force": res.force.tolist(),
             "newton": res.newton_iterations.tolist(), "krylov": res.krylov_iterations.tolist(),
+            "tangent_products": getattr(substrates[-1], "tangent_products", None) if substrates else None,
+            "tangent": None if res.tangent_stiffness is None else res.tangent_stiffness.tolist(),
             "contact": (res.contact_count / z1.size).tolist(), "residual": float(res.residual.max()),
             "rss_gib": _rss_gib()}
 
@@ -178,7 +193,8 @@ def child_stiff(args) -> dict:
     return out
 
 
-CHILDREN = {"prep": child_prep, "tyreroad": child_tyreroad, "cm": child_cm, "stiff": child_stiff}
+CHILDREN = {"prep": child_prep, "tyreroad": child_tyreroad, "baseline": child_tyreroad, "cm": child_cm,
+            "stiff": child_stiff}
 
 
 # ----------------------------------------------------------------------------------------------
@@ -192,6 +208,10 @@ def _spawn(kind: str, args, nx: int, ny: int, inputs: Path) -> dict | None:
     env = dict(os.environ)
     for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS"):
         env[var] = "1"
+    if kind == "baseline":  # an earlier checkout of tyreroad, same child code
+        env["PYTHONPATH"] = str(Path(args.baseline).resolve())
+    elif kind in ("tyreroad", "stiff", "prep"):
+        env["PYTHONPATH"] = str(ROOT) + os.pathsep + env.get("PYTHONPATH", "")
     proc = subprocess.run(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     if proc.returncode != 0 or not result.exists():
         print(f"  !! {kind} {nx}x{ny} FAILED (exit {proc.returncode}); stderr tail:")
@@ -221,9 +241,10 @@ def _median(xs):
 
 def compare(args, nx: int, ny: int) -> dict:
     inputs = _inputs(args, nx, ny)
-    runs: dict[str, list[dict]] = {"tyreroad": [], "cm": []}
+    kinds = ("cm", "tyreroad") + (("baseline",) if args.baseline else ())
+    runs: dict[str, list[dict]] = {kind: [] for kind in kinds}
     for _ in range(args.repeats):
-        for kind in ("cm", "tyreroad"):
+        for kind in kinds:
             res = _spawn(kind, args, nx, ny, inputs)
             if res is not None:
                 runs[kind].append(res)
@@ -237,13 +258,28 @@ def compare(args, nx: int, ny: int) -> dict:
     print(f"\n=== {nx} x {ny} elements, five indentations, hard contact, 1 thread, {args.repeats} repeats ===")
     print(f"{'code':<18s} {'run s med':>9s} {'min':>6s} {'max':>6s} {'start-up s':>10s} {'import s':>8s} "
           f"{'peak RSS GiB':>12s}  iterations per indentation")
-    for name, rs, its in (("tyreroad", ty, [f"{n}/{k}" for n, k in zip(ty[0]["newton"], ty[0]["krylov"])]),
-                          ("ContactMechanics", cm, [str(i) for i in cm[0]["iterations"]])):
+    rows = [("tyreroad", ty, [f"{n}/{k}" for n, k in zip(ty[0]["newton"], ty[0]["krylov"])]),
+            ("ContactMechanics", cm, [str(i) for i in cm[0]["iterations"]])]
+    if runs.get("baseline"):
+        bl = runs["baseline"]
+        rows.append((f"tyreroad baseline", bl, [f"{n}/{k}" for n, k in zip(bl[0]["newton"], bl[0]["krylov"])]))
+    for name, rs, its in rows:
         times = [r["run_s"] for r in rs]
         print(f"{name:<18s} {_median(times):9.2f} {min(times):6.2f} {max(times):6.2f} "
               f"{_median([r['startup_s'] for r in rs]):10.2f} {_median([r['import_s'] for r in rs]):8.2f} "
               f"{max(r['rss_gib'] for r in rs):12.3f}  {' '.join(its)}")
-    print("  (tyreroad iterations: Newton/Krylov products; ContactMechanics: Polonsky-Keer iterations)")
+    tp = ty[0].get("tangent_products")
+    print("  (tyreroad iterations: Newton/Krylov products"
+          + (f", plus {tp} Krylov products of the five tangent solves K = dF/dd" if tp is not None else "")
+          + "; ContactMechanics: Polonsky-Keer iterations)")
+    if runs.get("baseline"):
+        bl = runs["baseline"]
+        t_bl = _median([r["run_s"] for r in bl])
+        df = max(abs(a - b) / b for a, b in zip(ty[0]["force"], bl[0]["force"]))
+        dk = (max(abs(a - b) / b for a, b in zip(ty[0]["tangent"], bl[0]["tangent"]))
+              if ty[0].get("tangent") and bl[0].get("tangent") else float("nan"))
+        print(f"  against the baseline ({args.baseline}): time {t_ty / t_bl:.2f}x, forces max rel diff {df:.1e}, "
+              f"tangent dF/dd max rel diff {dk:.1e}")
     print(f"{'d [mm]':>8s} {'F tyreroad [N]':>15s} {'F CM [N]':>12s} {'rel diff':>9s} {'contact':>8s}")
     for d, a, b, r, c in zip(INDENTATIONS, f_ty, f_cm, rel, ty[0]["contact"]):
         print(f"{d * 1e3:8.2f} {a:15.3f} {b:12.3f} {r:9.2e} {100 * c:7.1f}%")
@@ -281,6 +317,8 @@ def main(argv=None) -> None:
     parser.add_argument("--pentol", type=float, default=1e-10, help="ContactMechanics penetration tolerance [m]")
     parser.add_argument("--no-stiffness-check", dest="stiffness_check", action="store_false")
     parser.add_argument("--cache", default=str(ROOT / "results" / "benchmarks" / "compare_contactmechanics"))
+    parser.add_argument("--baseline", default=None,
+                        help="an earlier tyreroad checkout (its root) timed alongside, same children, alternating")
     parser.add_argument("--config", default=str(ROOT / "config" / "config.yaml"))
     parser.add_argument("--child", choices=sorted(CHILDREN), help=argparse.SUPPRESS)
     parser.add_argument("--nx", type=int, help=argparse.SUPPRESS)

@@ -4,20 +4,27 @@ import numpy as np
 import pytest
 
 from tyreroad import springs
+import scipy.fft
+
 from tyreroad.convolution import (
     BlockJacobiPreconditioner,
+    ComplianceBlockPreconditioner,
     OffsetConvolution,
+    _cg_curvature,
+    _cg_direction,
+    _cg_update,
     _combine,
     _orthogonalize,
+    compliance_cg,
     padded_shape,
 )
 from tyreroad.history import FFTHistory, _accumulate_complex, _accumulate_real
 from tyreroad.newton import FFTSubstrate, StepConvergenceError, solve_step
 
 
-def solve_step_newton_krylov(rhs, zeta0, table, conv, tol=1e-12, max_iter=50, block=4):
+def solve_step_newton_krylov(rhs, zeta0, table, conv, tol=1e-12, max_iter=50, block=4, krylov="auto"):
     """One matrix-free Newton step on (nx, ny) fields through the package's driver."""
-    substrate = FFTSubstrate(conv, tol, block=block)
+    substrate = FFTSubstrate(conv, tol, block=block, krylov=krylov)
     return solve_step(np.ravel(rhs).astype(float), np.ravel(zeta0).astype(float), table, substrate, tol, max_iter)
 
 
@@ -230,8 +237,8 @@ def _dense_newton(g0mat, spring_eval, rhs):
     return zeta.reshape(rhs.shape), np.max(np.abs(r))
 
 
-@pytest.mark.parametrize("block", [1, 4])
-def test_newton_krylov_equals_dense_newton(block):
+@pytest.mark.parametrize("block, krylov", [(1, "auto"), (4, "auto"), (4, "gmres")])
+def test_newton_krylov_equals_dense_newton(block, krylov):
     nx = ny = 12
     g, spring_eval, rhs, table = _problem(nx, ny)
     conv = OffsetConvolution(g, (nx, ny))
@@ -241,7 +248,7 @@ def test_newton_krylov_equals_dense_newton(block):
     active = np.mean(ref > 0)
     assert 0.25 < active < 0.9  # a genuine contact problem, not all-in or all-out
 
-    sol = solve_step_newton_krylov(rhs, rhs, table, conv, tol=1e-12, max_iter=50, block=block)
+    sol = solve_step_newton_krylov(rhs, rhs, table, conv, tol=1e-12, max_iter=50, block=block, krylov=krylov)
     f, _ = spring_eval(sol.zeta)
     true_res = np.max(np.abs(sol.zeta.ravel() - rhs.ravel() + g0mat @ f.ravel()))
     assert sol.residual <= 1e-12 and true_res <= 1e-12
@@ -250,8 +257,144 @@ def test_newton_krylov_equals_dense_newton(block):
     assert sol.newton_iterations >= 2 and sol.krylov_iterations >= sol.newton_iterations
     assert _rel(sol.force, spring_eval(sol.zeta)[0].ravel()) == 0.0
 
-    tight = solve_step_newton_krylov(rhs, rhs, table, conv, tol=1e-15, max_iter=50, block=block)
+    tight = solve_step_newton_krylov(rhs, rhs, table, conv, tol=1e-15, max_iter=50, block=block, krylov=krylov)
     assert _rel(tight.zeta, ref.ravel()) < 1e-10
+
+
+def test_cg_kernels_equal_numpy():
+    rng = np.random.default_rng(11)
+    n = 57
+    p, gp, res, pre = (rng.standard_normal(n) for _ in range(4))
+    k = rng.uniform(1e4, 1e6, n)
+    k[rng.random(n) < 0.4] = 0.0
+    kinv = np.where(k > 0, 1.0 / np.where(k > 0, k, 1.0), 0.0)
+    q = np.empty(n)
+    pq = _cg_curvature(p, gp, kinv, q)
+    q_ref = np.where(k > 0, gp + kinv * p, 0.0)
+    assert np.max(np.abs(q - q_ref)) < 1e-15 * np.max(np.abs(q_ref)) and abs(pq - p @ q_ref) < 1e-13 * abs(p @ q_ref)
+    u, gu, r = rng.standard_normal(n), rng.standard_normal(n), res.copy()
+    u0, gu0 = u.copy(), gu.copy()
+    rr = _cg_update(0.7, p, gp, q, u, gu, r)
+    assert np.max(np.abs(u - (u0 + 0.7 * p))) < 1e-15 and np.max(np.abs(gu - (gu0 + 0.7 * gp))) < 1e-15
+    assert np.max(np.abs(r - (res - 0.7 * q))) < 1e-15 and abs(rr - np.sum((res - 0.7 * q) ** 2)) < 1e-12 * rr
+    p2 = p.copy()
+    _cg_direction(0.3, pre, p2)
+    assert np.max(np.abs(p2 - (pre + 0.3 * p))) < 1e-15
+
+
+@pytest.mark.parametrize("nx, ny, b", [(7, 11, 4), (9, 10, 3), (5, 6, 1)])
+def test_compliance_preconditioner_solves_the_loaded_tile_blocks(nx, ny, b):
+    """blockdiag((G_t[L, L] + diag(1/k_L))^-1) by Cholesky over the loaded elements, against numpy per tile."""
+    g, _, _, _ = _problem(nx, ny)
+    conv = OffsetConvolution(g, (nx, ny))
+    rng = np.random.default_rng(15)
+    k = rng.uniform(1e4, 1e10, (nx, ny))
+    k[rng.random((nx, ny)) < 0.4] = 0.0
+    k[:b, :b] = 0.0  # a tile without contact
+    r = rng.standard_normal((nx, ny)) * (k > 0)
+    pre = ComplianceBlockPreconditioner(conv, b)
+    with pytest.raises(RuntimeError, match="before update"):
+        pre.solve(r)
+    pre.update(k)
+    z = pre.solve(r)
+    g0 = _dense_matrices(g, nx, ny)[0]
+    ref = np.zeros((nx, ny))
+    for tx in range(0, nx, b):
+        for ty in range(0, ny, b):
+            ix, iy = np.meshgrid(np.arange(tx, min(tx + b, nx)), np.arange(ty, min(ty + b, ny)), indexing="ij")
+            idx = (ix * ny + iy).ravel()
+            idx = idx[k.ravel()[idx] > 0]
+            if idx.size:
+                block = g0[np.ix_(idx, idx)] + np.diag(1.0 / k.ravel()[idx])
+                ref.ravel()[idx] = np.linalg.solve(block, r.ravel()[idx])
+    assert _rel(z, ref) < 1e-12 and np.all(z[k == 0] == 0.0)
+    # the same as k (I + G_t k)^-1 of the Jacobian's tile inverses
+    bj = BlockJacobiPreconditioner(conv, b)
+    bj.update(k)
+    assert _rel(z, k * bj.solve(r)) < 1e-10
+    with pytest.raises(np.linalg.LinAlgError, match="not positive definite"):
+        ComplianceBlockPreconditioner(OffsetConvolution(-g, (nx, ny)), b).update(np.full((nx, ny), 1e12))
+
+
+@pytest.mark.parametrize("block", [1, 3])
+def test_compliance_cg_solves_the_jacobian(block):
+    """J delta = rhs, J = I + G0 diag(k) with gaps (k = 0), against a dense solve; the residual reported is J's."""
+    nx, ny = 9, 10
+    g, _, _, _ = _problem(nx, ny)
+    conv = OffsetConvolution(g, (nx, ny))
+    assert conv.lag0_even
+    rng = np.random.default_rng(12)
+    k = rng.uniform(1e4, 1e9, nx * ny)  # soft to stiff
+    k[rng.random(nx * ny) < 0.4] = 0.0
+    rhs = rng.standard_normal(nx * ny) * 1e-6
+    pre = ComplianceBlockPreconditioner(conv, block)
+    pre.update(k)
+    jac = np.eye(nx * ny) + _dense_matrices(g, nx, ny)[0] * k[None, :]
+    ref = np.linalg.solve(jac, rhs)
+    delta, u, products, rnorm = compliance_cg(lambda v: conv.apply_lag(v, 0).ravel(),
+                                              lambda r, out: pre.solve(r, out=out), k, rhs, 1e-20, 500)
+    assert rnorm <= 1e-20 and 0 < products <= 2 * nx * ny
+    assert _rel(k * delta, k * ref) < 1e-9 and _rel(delta, ref) < 1e-9
+    assert np.all(u[k == 0] == 0.0) and _rel(u, k * ref) < 1e-9  # u = k delta lives on the loaded set
+    assert np.linalg.norm(jac @ delta - rhs) < 1e-8 * np.linalg.norm(rhs)
+    # nothing loaded: J = I
+    same = compliance_cg(lambda v: conv.apply_lag(v, 0).ravel(), lambda r, out: pre.solve(r, out=out),
+                         np.zeros(nx * ny), rhs, 1e-20, 10)
+    assert np.array_equal(same[0], rhs) and same[2] == 0
+    # an indefinite G breaks down (None: the caller falls back to GMRES)
+    neg = compliance_cg(lambda v: -conv.apply_lag(v, 0).ravel(), lambda r, out: out.__setitem__(slice(None), r),
+                        np.full(nx * ny, 1e9), rhs, 1e-20, 50)
+    assert neg is None
+
+
+def test_pruned_spectrum_and_reused_buffers():
+    rng = np.random.default_rng(13)
+    nx, ny = 6, 9
+    g = rng.standard_normal((2 * nx - 1, 2 * ny - 1, 2))
+    conv = OffsetConvolution(g, (nx, ny))
+    assert not conv.lag0_even
+    f1, f2 = rng.standard_normal((2, nx, ny))
+    spec = conv.spectrum(f1)
+    assert np.max(np.abs(spec - scipy.fft.rfft2(f1, s=conv.padded))) < 1e-13 * np.max(np.abs(spec))
+    assert _rel(conv.field(spec.copy(), overwrite=True), f1) < 1e-14
+    w1 = conv.apply_lag(f1, 0).copy()
+    w2 = conv.apply_lag(f2, 0)
+    mat = _dense_matrices(g, nx, ny)[0]
+    assert _rel(w1.ravel(), mat @ f1.ravel()) < 1e-13 and _rel(w2.ravel(), mat @ f2.ravel()) < 1e-13
+
+
+def test_fft_substrate_tangent_and_predictor():
+    """K = 1^T [G0|C + diag(1/k)]^-1 1 and v = dzeta/dd against dense; the predictor only for the same state."""
+    nx, ny = 9, 10
+    g, _, _, _ = _problem(nx, ny)
+    sub = FFTSubstrate(OffsetConvolution(g, (nx, ny)), 1e-12)
+    assert sub.use_cg
+    rng = np.random.default_rng(14)
+    k = rng.uniform(1e5, 1e10, nx * ny)
+    k[rng.random(nx * ny) < 0.5] = 0.0
+    act = np.flatnonzero(k)
+    g0 = _dense_matrices(g, nx, ny)[0]
+    u_ref = np.linalg.solve(g0[np.ix_(act, act)] + np.diag(1.0 / k[act]), np.ones(act.size))
+    assert abs(sub.tangent_stiffness(k) / u_ref.sum() - 1) < 1e-12
+    v_ref = np.linalg.solve(np.eye(nx * ny) + g0 * k[None, :], np.ones(nx * ny))
+    shift = np.full(nx * ny, 2e-6)
+    pred = sub.predict(shift, k)
+    assert _rel(pred, 2e-6 * v_ref) < 1e-9
+    assert sub.predict(shift, np.where(k > 0, 2 * k, 0.0)) is None  # another state
+    assert sub.predict(shift * np.linspace(1, 2, nx * ny), k) is None  # not a uniform shift
+    assert sub.tangent_products > 0
+    assert sub.tangent_stiffness(np.zeros(nx * ny)) == 0.0
+    # G0 F from the cache equals a fresh product
+    f = rng.standard_normal(nx * ny)
+    w = sub.instant(f)
+    w[:] = 0.0  # the caller's copy
+    assert _rel(sub.instant(f), g0 @ f) < 1e-13
+    gm = FFTSubstrate(OffsetConvolution(g, (nx, ny)), 1e-12, krylov="gmres")
+    assert not gm.use_cg
+    with pytest.raises(RuntimeError, match="tangent_stiffness needs"):
+        gm.tangent_stiffness(k)
+    with pytest.raises(ValueError, match="krylov"):
+        FFTSubstrate(OffsetConvolution(g, (nx, ny)), 1e-12, krylov="cg")
 
 
 def test_newton_krylov_warm_start_and_failure():

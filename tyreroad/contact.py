@@ -118,8 +118,9 @@ class SolverSettings:
         Add the kernel's tail beyond the kept lags (SPEC 9, :mod:`tyreroad.memory`) to runs longer
         than the kept lags (default True). Off, such a run is an error naming the lags and steps.
     krylov_forcing : float
-        Largest inexact-Newton forcing term of the ``fft`` path, 0 < eta < 1 (default 1e-6): GMRES
-        solves each Newton correction to at most this fraction of ||R||_2
+        Largest inexact-Newton forcing term of the ``fft`` path, 0 < eta < 1 (default 1e-6): the
+        Krylov solver (conjugate gradients, GMRES for kernels that are not even) solves each Newton
+        correction to at most this fraction of ||R||_2
         (:class:`tyreroad.newton.FFTSubstrate`).
     """
 
@@ -532,11 +533,16 @@ def run_loading_path(loading, springs, kernel, settings: SolverSettings, threads
     if recorder is None:
         tangent = None
         if np.shape(kernel)[2] == 1 and not extra_histories:
-            # a one-lag kernel: every step is a static state, whose tangent dF/dd is stored
-            from .stiffness import TangentStiffness
+            # a one-lag kernel: every step is a static state, whose tangent dF/dd is stored; the
+            # FFT substrate solves it with its own preconditioned CG and keeps dzeta/dd as the
+            # next step's predictor
+            if getattr(substrate, "use_cg", False):
+                tangent = substrate.tangent_stiffness
+            else:
+                from .stiffness import TangentStiffness
 
-            tangent = TangentStiffness(np.asarray(kernel)[:, :, 0], shape,
-                                       settings.resolved_method(shape[0] * shape[1]), workers=threads)
+                tangent = TangentStiffness(np.asarray(kernel)[:, :, 0], shape,
+                                           settings.resolved_method(shape[0] * shape[1]), workers=threads)
         recorder = RunRecorder(loading.n_steps, shape, tangent)
     return march(loading, springs, substrate, history, settings, recorder)
 

@@ -243,7 +243,7 @@ class FFTHistory:
         else:
             _accumulate_complex(g_re, g_im, *args)
         spec = (self._out_re + 1j * self._out_im).reshape(conv.spectrum_shape)
-        return conv.field(spec).ravel()
+        return conv.field(spec, overwrite=True).ravel()
 
 
 # --------------------------------------------------------------------------------------------

@@ -23,12 +23,15 @@ projection solver: the same Newton driver, histories and outputs serve it.
 
 :class:`DenseSubstrate` holds G_0 as a dense matrix and solves the Jacobian of the loaded elements
 directly (the reference, and the path of the paper's 20 x 20 patch); :class:`FFTSubstrate` applies
-G_0 by FFT convolution and solves matrix-free by preconditioned GMRES (footprint-size patches).
+G_0 by FFT convolution and solves matrix-free by preconditioned conjugate gradients on the
+compliance form of the Jacobian (GMRES for tables that are not even; footprint-size patches).
 
 References
 ----------
 Eisenstat, S. C., & Walker, H. F. (1996). Choosing the forcing terms in an inexact Newton method.
 SIAM J. Sci. Comput. 17(1), 16-32. doi:10.1137/0917003
+Hestenes, M. R., & Stiefel, E. (1952). Methods of conjugate gradients for solving linear systems.
+J. Res. Natl. Bur. Stand. 49(6), 409-436. doi:10.6028/jres.049.044
 Knoll, D. A., & Keyes, D. E. (2004). Jacobian-free Newton-Krylov methods: a survey of approaches
 and applications. J. Comput. Phys. 193(2), 357-397. doi:10.1016/j.jcp.2003.08.010
 """
@@ -44,7 +47,13 @@ import numpy as np
 from numba import njit
 
 from . import checks
-from .convolution import BlockJacobiPreconditioner, OffsetConvolution, gmres
+from .convolution import (
+    BlockJacobiPreconditioner,
+    ComplianceBlockPreconditioner,
+    OffsetConvolution,
+    compliance_cg,
+    gmres,
+)
 from .springs import SpringTable
 
 logger = logging.getLogger(__name__)
@@ -203,7 +212,10 @@ def solve_step(b, zeta0, springs: SpringTable, substrate: Substrate, tolerance: 
         Newton iterations allowed.
     shift : numpy.ndarray, optional
         Warm start from ``zeta0`` moved by the change of b since that solution [m], shape (M,):
-        zeta0 + shift, or with a scaled unknown x(zeta0) + shift. None: start at ``zeta0``.
+        zeta0 + shift, or with a scaled unknown x(zeta0) + shift; where the substrate predicts
+        the step (``substrate.predict(shift, k(zeta0))`` returns a compression step, e.g. the
+        quasi-static tangent of :class:`FFTSubstrate`), zeta0 moved by that prediction instead.
+        None: start at ``zeta0``.
 
     Returns
     -------
@@ -219,9 +231,18 @@ def solve_step(b, zeta0, springs: SpringTable, substrate: Substrate, tolerance: 
     f, k = np.empty(n_elem), np.empty(n_elem)
     f_try, k_try = np.empty(n_elem), np.empty(n_elem)
     scale = _kink_scale(springs, substrate, n_elem)
+    predicted = None
+    if shift is not None and hasattr(substrate, "predict"):
+        # the tangent of the start state, where the substrate kept it (quasi-static FFT runs)
+        springs.evaluate_into(zeta0, f, k)
+        predicted = substrate.predict(shift, k)
     if shift is None:
         zeta = zeta0.copy()
         x = _to_unknown(zeta, scale)
+    elif predicted is not None:
+        x0 = _to_unknown(zeta0, scale)
+        x = x0 + _unknown_step(predicted, x0, scale)
+        zeta = _to_compression(x, scale)
     elif scale is None:
         zeta = zeta0 + shift
         x = zeta
@@ -393,10 +414,27 @@ def _norm(x: np.ndarray) -> float:
     return math.sqrt(float(np.einsum("i,i->", x, x)))
 
 
-class FFTSubstrate:
-    """G_0 applied by FFT convolution; corrections by right-preconditioned GMRES (matrix-free).
+def _dot(x: np.ndarray, y: np.ndarray) -> float:
+    """x . y without BLAS (see :func:`_norm`)."""
+    return float(np.einsum("i,i->", x, y))
 
-    The GMRES target for J delta = -R is
+
+class FFTSubstrate:
+    """G_0 applied by FFT convolution; corrections by preconditioned conjugate gradients (matrix-free).
+
+    The Newton correction solves J delta = -R, J = I + G_0 diag(k). Columns of elements without
+    spring stiffness (k = 0: gaps) are unit vectors, so only the loaded set C is coupled: with the
+    force increment u = k delta on C,
+
+        (G_0|C + diag(1/k_C)) u = -R_C,        delta_C = u / k_C,   delta_I = -R_I - (G_0 u)_I.
+
+    For an even lag-0 table (the layer kernel is, SPEC 5; :attr:`OffsetConvolution.lag0_even`)
+    G_0 is symmetric positive definite, and so is this compliance-form matrix: it is solved by
+    preconditioned conjugate gradients (one FFT product per iteration, no orthogonalisation, no
+    basis to store). Its residual *is* the linear residual J delta + R on C, and is zero on the
+    other elements (delta_I is exact: G_0 u is accumulated from the products, no extra FFT). Any
+    other table, negative stiffnesses, or a CG breakdown use right-preconditioned GMRES on J.
+    The target is
 
         ||J delta + R||_2 <= max(min(eta ||R||_2, theta max|R|), tolerance / 4):
 
@@ -405,10 +443,25 @@ class FFTSubstrate:
     the linear residual's max-norm by half the Newton residual's, so the linear model promises a
     max-norm decrease whatever the number of elements; the absolute floor tolerance / 4 lets the
     Newton residual reach the tolerance without over-solving earlier iterations. The polishing
-    correction is solved to 1e-3 of ||R||_2. The block-Jacobi preconditioner is factorised for the
-    current k at the first iteration of a step, again only after a GMRES solve that needed more
-    than ``refresh_after`` products, and before polishing; it only steers GMRES, the Jacobian
-    products always use the current k.
+    correction is solved to 1e-3 of ||R||_2.
+
+    Preconditioner: block Jacobi on b x b tiles. CG uses the exact inverse of the compliance-form
+    block over each tile's loaded elements, (G_tile + diag(1/k))^-1 = k (I + G_tile k)^-1
+    (:class:`tyreroad.convolution.ComplianceBlockPreconditioner`, by Cholesky: symmetric positive
+    definite), factorised again whenever k differs from the k it was built for (for linear
+    springs: only when the contact set changes). GMRES uses the tile inverses of J
+    (:class:`tyreroad.convolution.BlockJacobiPreconditioner`), refactorised at the first
+    iteration of a step, after a solve of more than ``refresh_after`` products, and before
+    polishing. The tile edge hardly matters for the stiff case (300 x 400, hard contact, five
+    indentations: 290 / 261 / 248 / 243 CG products for b = 2 / 3 / 4 / 5); the iteration count is
+    set by the layer's own conditioning, not by the local coupling.
+
+    Quasi-static tangent and predictor. :meth:`tangent_stiffness` solves the same system with
+    the right-hand side 1 (dR/dd = -1 for a flat tread surface): v = J^-1 1 = dzeta/dd and
+    K = 1^T k v = 1^T [G_0|C + diag(1/k)]^-1 1. v is kept, and :meth:`predict` returns
+    (d_new - d_old) v as the first step of the next indentation when the loading moves every
+    free compression by the same amount: the exact linear prediction for an unchanged contact
+    set (Newton then corrects the contact-set changes only).
 
     Why the forcing is tight: with stiff springs (hard contact, k g_00 >> 1) the compressions of
     loaded springs are tiny (F / k) while the residual is not, and a spring on the verge of contact
@@ -416,8 +469,8 @@ class FFTSubstrate:
     eta_max = 0.1) left errors that no step length could undo: 1e8 N/m springs failed at 20 x 20,
     5e6 N/m at 150 x 200. With eta <= 1e-6 and the Newton unknown scaled at first contact
     (:attr:`self_compliance`, :func:`solve_step`) springs of 1e6 ... 1e10 N/m converge in 4-6
-    Newton iterations (~60-90 Krylov products per step at 150 x 200); looser caps cost more,
-    not less (1e-2: ~2000 products per step, GMRES stalling on the late corrections).
+    Newton iterations (~50-60 Krylov products per step at 150 x 200 and 300 x 400); looser caps
+    cost more, not less (1e-2: ~2000 GMRES products per step, stalling on the late corrections).
 
     Parameters
     ----------
@@ -428,19 +481,28 @@ class FFTSubstrate:
     block : int
         Tile edge [elements] of the block-Jacobi preconditioner (1 = Jacobi).
     eta_max : float
-        Largest inexact-Newton forcing term (relative GMRES tolerance), 0 < eta_max < 1.
+        Largest inexact-Newton forcing term (relative Krylov tolerance), 0 < eta_max < 1.
     max_norm_fraction : float
         theta above, 0 < theta < 1.
+    krylov : {"auto", "gmres"}
+        ``auto``: conjugate gradients where the lag-0 table is even, GMRES otherwise;
+        ``gmres``: always GMRES.
 
     Attributes
     ----------
     self_compliance : float
         g_00 = G_0[e, e] [m/N]; :func:`solve_step` scales its unknown at first contact with it.
     krylov_restart, krylov_max : int
-        GMRES restart length and limit on matrix-vector products per correction.
+        GMRES restart length and limit on matrix-vector products per correction (both methods).
     refresh_after : int
         See above (0: refactorise at every iteration).
+    tangent_products : int
+        Krylov products of all :meth:`tangent_stiffness` calls.
     """
+
+    #: Relative residual ||1 - J v||_2 / ||1_C||_2 of the tangent solve; K's error is of the order of
+    #: its square (CG from zero minimises the energy norm, K = 1^T u is quadratic in the error).
+    TANGENT_TOLERANCE = 1e-10
 
     def __init__(
         self,
@@ -452,6 +514,7 @@ class FFTSubstrate:
         krylov_max: int = 600,
         refresh_after: int = 8,
         max_norm_fraction: float = 0.5,
+        krylov: str = "auto",
     ):
         if not isinstance(conv, OffsetConvolution):
             raise TypeError(f"conv: expected OffsetConvolution, got {type(conv).__name__}")
@@ -463,38 +526,73 @@ class FFTSubstrate:
         if not 0.0 < max_norm_fraction < 1.0:
             raise ValueError(f"max_norm_fraction: expected 0 < theta < 1, got {max_norm_fraction!r}")
         self.max_norm_fraction = float(max_norm_fraction)
+        if krylov not in ("auto", "gmres"):
+            raise ValueError(f"krylov: expected 'auto' or 'gmres', got {krylov!r}")
+        self.use_cg = krylov == "auto" and conv.lag0_even
         self.krylov_restart = checks.integer("krylov_restart", krylov_restart)
         self.krylov_max = checks.integer("krylov_max", krylov_max)
         self.refresh_after = checks.integer("refresh_after", refresh_after, minimum=0)
         self.preconditioner = BlockJacobiPreconditioner(conv, block)
+        self.compliance_preconditioner = ComplianceBlockPreconditioner(conv, block) if self.use_cg else None
         nx, ny = conv.shape
         self.self_compliance = float(conv.lag0[nx - 1, ny - 1])
+        self._pre_k = None  # the k the preconditioner was factorised for (CG path)
+        self._tangent = None  # (k, v = dzeta/dd) of the last tangent solve
+        self._instant_cache = []  # [(F, G0 F)] of the last two distinct products
+        self.tangent_products = 0
         self.begin_step()
 
     def instant(self, force: np.ndarray) -> np.ndarray:
-        """G_0 F [m], shape (M,), by one FFT convolution."""
-        return self.conv.apply_lag(force, 0).ravel()
+        """G_0 F [m], shape (M,), by one FFT convolution (the last two results are reused)."""
+        f = np.asarray(force, dtype=float).ravel()
+        for f_old, w_old in self._instant_cache:
+            if np.array_equal(f, f_old):
+                return w_old.copy()
+        w = self.conv.apply_lag(f, 0).ravel()
+        self._instant_cache = [(f.copy(), w.copy())] + self._instant_cache[:1]
+        return w
 
     def begin_step(self) -> None:
-        """Reset the forcing term and ask for a fresh preconditioner."""
+        """Reset the forcing term and ask for a fresh (GMRES) preconditioner."""
         self._eta = self.eta_max
         self._r2_prev = None
         self._last_products = None
 
     def _matvec(self, stiffness: np.ndarray):
         def matvec(v):
-            return v + self.instant(stiffness * v)
+            return v + self.conv.apply_lag(stiffness * v, 0).ravel()
 
         return matvec
 
     def _psolve(self, v):
         return self.preconditioner.solve(v).ravel()
 
+    def _refresh_cg(self, k: np.ndarray) -> bool:
+        """Factorise the compliance-form tiles for k unless they already are; False if not positive definite."""
+        if self._pre_k is None or not np.array_equal(k, self._pre_k):
+            try:
+                self.compliance_preconditioner.update(k.reshape(self.conv.shape))
+            except np.linalg.LinAlgError:
+                self._pre_k = None
+                return False
+            self._pre_k = k.copy()
+        return True
+
+    def _cg(self, k: np.ndarray, rhs: np.ndarray, atol: float):
+        """:func:`tyreroad.convolution.compliance_cg` with G_0 and the tile preconditioner (None: not SPD)."""
+        if not self._refresh_cg(k):
+            return None
+
+        def precondition(r, out):
+            self.compliance_preconditioner.solve(r, out=out)
+
+        return compliance_cg(lambda v: self.conv.apply_lag(v, 0).ravel(), precondition, k, rhs, atol,
+                             self.krylov_max)
+
     def correction(self, stiffness: np.ndarray, residual: np.ndarray, polish: bool) -> tuple[np.ndarray, int]:
-        """Inexact solution of (I + G_0 diag(k)) delta = -r by preconditioned GMRES."""
+        """Inexact solution of (I + G_0 diag(k)) delta = -r (conjugate gradients or GMRES)."""
         r2 = _norm(residual)
         if polish:
-            self.preconditioner.update(stiffness.reshape(self.conv.shape))
             target = 1e-3 * r2
         else:
             if self._r2_prev is not None:
@@ -503,18 +601,79 @@ class FFTSubstrate:
                 if 0.9 * self._eta**2 > 0.1:
                     eta_new = max(eta_new, 0.9 * self._eta**2)
                 self._eta = min(self.eta_max, eta_new)
-            if self._last_products is None or self._last_products > self.refresh_after:
-                self.preconditioner.update(stiffness.reshape(self.conv.shape))
             # ||J d + R||_2 <= theta max|R| bounds the linear residual's max-norm by theta max|R|:
             # the linear model then promises a max-norm decrease whatever the number of elements
             rinf = float(np.max(np.abs(residual)))
             target = max(min(self._eta * r2, self.max_norm_fraction * rinf), 0.25 * self.tolerance)
-        delta, products, linear = gmres(
-            self._matvec(stiffness), self._psolve, -residual, target, self.krylov_restart, self.krylov_max
-        )
+        solved = None
+        if self.use_cg and float(np.min(stiffness)) >= 0.0:
+            solved = self._cg(stiffness, -residual, target)
+            if solved is None:
+                logger.debug("CG breakdown (matrix not positive definite): GMRES for this correction")
+        if solved is not None:
+            delta, _, products, linear = solved
+        else:
+            if polish or self._last_products is None or self._last_products > self.refresh_after:
+                self.preconditioner.update(stiffness.reshape(self.conv.shape))
+            delta, products, linear = gmres(
+                self._matvec(stiffness), self._psolve, -residual, target, self.krylov_restart, self.krylov_max
+            )
         if linear > target:
-            logger.debug("GMRES stopped at ||J d + R|| = %.3e > target %.3e after %d products", linear, target, products)
+            logger.debug("Krylov solve stopped at ||J d + R|| = %.3e > target %.3e after %d products",
+                         linear, target, products)
         if not polish:
             self._r2_prev = r2
             self._last_products = products
         return delta, products
+
+    def tangent_stiffness(self, stiffness) -> float:
+        """K = dF/dd = 1^T [G_0|C + diag(1/k)]^-1 1 [N/m] of a solved quasi-static state.
+
+        Parameters
+        ----------
+        stiffness : array_like
+            Tangent spring stiffnesses k_e >= 0 of the state [N/m], shape (M,) or (nx, ny).
+
+        Returns
+        -------
+        float
+            K [N/m]; v = dzeta/dd is kept for :meth:`predict`.
+
+        Raises
+        ------
+        RuntimeError
+            If the solve does not reach :attr:`TANGENT_TOLERANCE` (or G_0 is not symmetric
+            positive definite on the contact set).
+        """
+        k = np.asarray(stiffness, dtype=float).ravel()
+        n_c = int(np.count_nonzero(k > 0.0))
+        if not self.use_cg or float(np.min(k)) < 0.0:
+            raise RuntimeError("tangent_stiffness needs an even lag-0 table and k >= 0 (the CG path)")
+        atol = self.TANGENT_TOLERANCE * math.sqrt(max(n_c, 1))
+        solved = self._cg(k, np.ones(k.size), atol)
+        if solved is None or solved[3] > atol:
+            reached = float("nan") if solved is None else solved[3] / math.sqrt(n_c)
+            raise RuntimeError(
+                f"tangent stiffness: CG stopped at relative residual {reached:.2e} > {self.TANGENT_TOLERANCE:.0e} "
+                f"over {n_c} loaded elements"
+            )
+        v, u, products, _ = solved
+        self.tangent_products += products
+        self._tangent = (k.copy(), v)
+        return float(np.sum(u))
+
+    def predict(self, shift: np.ndarray, stiffness: np.ndarray):
+        """First compression step c v of a step whose free compression moved by shift = c 1, or None.
+
+        ``stiffness`` is k at the start value; the prediction needs the tangent v = dzeta/dd of
+        that very state (:meth:`tangent_stiffness`) and a uniform shift (to 1e-9 of it).
+        """
+        if self._tangent is None:
+            return None
+        k_t, v = self._tangent
+        c = float(np.mean(shift))
+        if c == 0.0 or float(np.max(np.abs(shift - c))) > 1e-9 * abs(c):
+            return None
+        if not np.array_equal(np.asarray(stiffness, dtype=float).ravel(), k_t):
+            return None
+        return c * v
