@@ -79,3 +79,20 @@ def test_written_files_get_normal_permissions(tmp_path):
     finally:
         os.umask(umask)
     assert stat.S_IMODE(path.stat().st_mode) == 0o644
+
+
+def test_read_selected_variables_keeps_coords_and_attrs(tmp_path):
+    ds = xr.Dataset(
+        {"stiffness": (("ex", "zeta"), np.arange(6.0).reshape(2, 3), {"units": "N/m", "long_name": "k"}),
+         "area": (("ex", "zeta"), np.ones((2, 3)), {"units": "m2", "long_name": "A"})},
+        coords={"zeta": ("zeta", [0.0, 1e-6, 2e-6], {"units": "m", "long_name": "zeta"})},
+        attrs={"element_size": 1e-3},
+    )
+    path = io.write_dataset(ds, tmp_path / "s.nc", {"springs": {}})
+    back = io.read_dataset(path, ["stiffness"])
+    assert list(back.data_vars) == ["stiffness"]
+    np.testing.assert_array_equal(back["stiffness"].values, ds["stiffness"].values)
+    np.testing.assert_array_equal(back["zeta"].values, ds["zeta"].values)
+    assert back.attrs["element_size"] == 1e-3
+    with pytest.raises(KeyError, match=r"s\.nc: no variable\(s\) force"):
+        io.read_dataset(path, ["stiffness", "force"])

@@ -187,6 +187,10 @@ def run_greens_figures(greens_ncs: Sequence[str | Path], out_material_png: str |
         plot_frf(datasets, tmp)
 
 
+#: The springs file's variables the contact solver reads (not the overlap area).
+SPRING_TABLES = ("stiffness", "force")
+
+
 def run_contact(
     surface_nc: str | Path,
     springs_nc: str | Path,
@@ -213,7 +217,7 @@ def run_contact(
     material = _material(material_name, material_cfg)
     result = solve_run(
         surface=io.read_dataset(surface_nc),
-        springs=io.read_dataset(springs_nc),
+        springs=io.read_dataset(springs_nc, SPRING_TABLES),
         greens=io.read_dataset(greens_nc),
         material=material,
         mode=mode,
@@ -316,7 +320,7 @@ def run_loading(
     preset = LoadingPreset(loading_name, loading_cfg, base_dir=base_dir)
     result = solve_loading(
         surface=io.read_dataset(surface_nc),
-        springs=io.read_dataset(springs_nc),
+        springs=io.read_dataset(springs_nc, SPRING_TABLES),
         greens=io.read_dataset(greens_nc),
         material=material,
         mode=mode,
