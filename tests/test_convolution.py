@@ -397,6 +397,30 @@ def test_fft_substrate_tangent_and_predictor():
         FFTSubstrate(OffsetConvolution(g, (nx, ny)), 1e-12, krylov="cg")
 
 
+def test_fft_substrate_falls_back_to_gmres_with_fresh_tiles(caplog):
+    """A correction CG cannot take (here a negative stiffness) after CG corrections of the same step:
+    GMRES with tiles built for this stiffness, the dense solution, and one warning."""
+    nx, ny = 9, 10
+    g, _, _, _ = _problem(nx, ny)
+    sub = FFTSubstrate(OffsetConvolution(g, (nx, ny)), 1e-14, refresh_after=100)
+    assert sub.use_cg
+    g0 = _dense_matrices(g, nx, ny)[0]
+    rng = np.random.default_rng(21)
+    k = rng.uniform(1e4, 5e4, nx * ny)
+    r = rng.standard_normal(nx * ny) * 1e-6
+    sub.begin_step()
+    delta, products = sub.correction(k, r, polish=False)
+    assert 0 < products <= sub.refresh_after  # few products: GMRES would have kept its (absent) tiles
+    assert _rel(delta, np.linalg.solve(np.eye(nx * ny) + g0 * k[None, :], -r)) < 1e-6
+    k2 = k.copy()
+    k2[0] = -1e3
+    with caplog.at_level("WARNING", logger="tyreroad.newton"):
+        delta2, _ = sub.correction(k2, r, polish=False)
+        sub.correction(k2, r, polish=False)
+    assert _rel(delta2, np.linalg.solve(np.eye(nx * ny) + g0 * k2[None, :], -r)) < 1e-6
+    assert sum("GMRES takes such corrections" in m for m in caplog.messages) == 1
+
+
 def test_newton_krylov_warm_start_and_failure():
     nx = ny = 12
     g, spring_eval, rhs, table = _problem(nx, ny, seed=8)

@@ -96,3 +96,5 @@ def test_read_selected_variables_keeps_coords_and_attrs(tmp_path):
     assert back.attrs["element_size"] == 1e-3
     with pytest.raises(KeyError, match=r"s\.nc: no variable\(s\) force"):
         io.read_dataset(path, ["stiffness", "force"])
+    with pytest.raises(TypeError, match="sequence of names"):
+        io.read_dataset(path, "stiffness")

@@ -201,6 +201,8 @@ def read_dataset(path: str | os.PathLike, variables: Sequence[str] | None = None
         Naming the file and the variables it lacks.
     """
     path = Path(path)
+    if isinstance(variables, str):
+        raise TypeError(f"read_dataset({path}): variables must be a sequence of names, got the string {variables!r}")
     if not path.exists():
         raise FileNotFoundError(f"{path}: no such tyreroad result file")
     with xr.open_dataset(path, engine="netcdf4") as ds:

@@ -539,6 +539,7 @@ class FFTSubstrate:
         self._pre_k = None  # the k the preconditioner was factorised for (CG path)
         self._tangent = None  # (k, v = dzeta/dd) of the last tangent solve
         self._instant_cache = []  # [(F, G0 F)] of the last two distinct products
+        self._fallback_logged = False
         self.tangent_products = 0
         self.begin_step()
 
@@ -556,7 +557,7 @@ class FFTSubstrate:
         """Reset the forcing term and ask for a fresh (GMRES) preconditioner."""
         self._eta = self.eta_max
         self._r2_prev = None
-        self._last_products = None
+        self._gmres_products = None  # products of this step's last GMRES solve (None: rebuild its tiles)
 
     def _matvec(self, stiffness: np.ndarray):
         def matvec(v):
@@ -606,24 +607,30 @@ class FFTSubstrate:
             rinf = float(np.max(np.abs(residual)))
             target = max(min(self._eta * r2, self.max_norm_fraction * rinf), 0.25 * self.tolerance)
         solved = None
-        if self.use_cg and float(np.min(stiffness)) >= 0.0:
-            solved = self._cg(stiffness, -residual, target)
-            if solved is None:
-                logger.debug("CG breakdown (matrix not positive definite): GMRES for this correction")
+        if self.use_cg:
+            if float(np.min(stiffness)) >= 0.0:
+                solved = self._cg(stiffness, -residual, target)
+            if solved is None and not self._fallback_logged:
+                self._fallback_logged = True
+                logger.warning("FFT substrate: negative spring stiffness or CG breakdown (G_0|C + diag(1/k) not "
+                               "positive definite); GMRES takes such corrections (logged once)")
         if solved is not None:
             delta, _, products, linear = solved
+            # the GMRES tiles (if any) belong to an older stiffness: rebuild them before any fallback
+            self._gmres_products = None
         else:
-            if polish or self._last_products is None or self._last_products > self.refresh_after:
+            if polish or self._gmres_products is None or self._gmres_products > self.refresh_after:
                 self.preconditioner.update(stiffness.reshape(self.conv.shape))
             delta, products, linear = gmres(
                 self._matvec(stiffness), self._psolve, -residual, target, self.krylov_restart, self.krylov_max
             )
+            if not polish:
+                self._gmres_products = products
         if linear > target:
             logger.debug("Krylov solve stopped at ||J d + R|| = %.3e > target %.3e after %d products",
                          linear, target, products)
         if not polish:
             self._r2_prev = r2
-            self._last_products = products
         return delta, products
 
     def tangent_stiffness(self, stiffness) -> float:
