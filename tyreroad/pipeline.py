@@ -14,6 +14,8 @@ import logging
 from pathlib import Path
 from typing import Any, Mapping, Sequence
 
+import xarray as xr
+
 from . import io
 
 logger = logging.getLogger(__name__)
@@ -191,6 +193,11 @@ def run_greens_figures(greens_ncs: Sequence[str | Path], out_material_png: str |
 SPRING_TABLES = ("stiffness", "force")
 
 
+def _solver_inputs(surface_nc, springs_nc, greens_nc) -> tuple[xr.Dataset, xr.Dataset, xr.Dataset]:
+    """Surface, springs (only :data:`SPRING_TABLES`) and greens datasets of a solver stage."""
+    return io.read_dataset(surface_nc), io.read_dataset(springs_nc, SPRING_TABLES), io.read_dataset(greens_nc)
+
+
 def run_contact(
     surface_nc: str | Path,
     springs_nc: str | Path,
@@ -215,10 +222,11 @@ def run_contact(
 
     settings = SolverSettings.from_config(solver_cfg)
     material = _material(material_name, material_cfg)
+    surface, springs, greens = _solver_inputs(surface_nc, springs_nc, greens_nc)
     result = solve_run(
-        surface=io.read_dataset(surface_nc),
-        springs=io.read_dataset(springs_nc, SPRING_TABLES),
-        greens=io.read_dataset(greens_nc),
+        surface=surface,
+        springs=springs,
+        greens=greens,
         material=material,
         mode=mode,
         acceleration=float(acceleration),
@@ -318,10 +326,11 @@ def run_loading(
     settings = SolverSettings.from_config(solver_cfg)
     material = _material(material_name, material_cfg)
     preset = LoadingPreset(loading_name, loading_cfg, base_dir=base_dir)
+    surface, springs, greens = _solver_inputs(surface_nc, springs_nc, greens_nc)
     result = solve_loading(
-        surface=io.read_dataset(surface_nc),
-        springs=io.read_dataset(springs_nc, SPRING_TABLES),
-        greens=io.read_dataset(greens_nc),
+        surface=surface,
+        springs=springs,
+        greens=greens,
         material=material,
         mode=mode,
         preset=preset,
@@ -371,8 +380,7 @@ def run_stiffness_spectrum(
     spectrum = SpectrumSettings.from_config(spectrum_cfg)
     material = _material(material_name, material_cfg)
     ds = spectrum_from_datasets(
-        io.read_dataset(surface_nc), io.read_dataset(springs_nc), io.read_dataset(greens_nc), material,
-        spectrum, settings, threads=threads,
+        *_solver_inputs(surface_nc, springs_nc, greens_nc), material, spectrum, settings, threads=threads
     )
     provenance = {
         "stiffness_spectrum": dict(spectrum_cfg or {}),
@@ -426,9 +434,8 @@ def run_rolling(
 
     settings = RollingSettings.from_config(rolling_cfg)
     solver = SolverSettings.from_config(solver_cfg)
-    surface = io.read_dataset(surface_nc)
-    result, info = solve_rolling_run(surface, io.read_dataset(springs_nc), io.read_dataset(greens_nc), mode,
-                                     float(speed), settings, solver, threads)
+    surface, springs, greens = _solver_inputs(surface_nc, springs_nc, greens_nc)
+    result, info = solve_rolling_run(surface, springs, greens, mode, float(speed), settings, solver, threads)
     ds = rolling_dataset(result, info, mode, float(speed), settings, surface, surface_name, material_name)
     provenance = {"rolling": dict(rolling_cfg), "solver": dict(solver_cfg)}
     io.write_dataset(ds, out_nc, provenance, stage="rolling_run", surface=surface_name, material=material_name,
