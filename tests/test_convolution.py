@@ -17,6 +17,7 @@ from tyreroad.convolution import (
     _orthogonalize,
     compliance_cg,
     padded_shape,
+    pivoted_solve,
 )
 from tyreroad.history import FFTHistory, _accumulate_complex, _accumulate_real
 from tyreroad.newton import FFTSubstrate, StepConvergenceError, solve_step
@@ -168,6 +169,17 @@ def test_gram_schmidt_kernels_equal_numpy():
     out = np.empty(50)
     _combine(c1, basis, out)
     assert np.max(np.abs(out - c1 @ basis)) < 1e-14
+
+
+def test_pivoted_solve_matches_numpy_and_flags_a_singular_pivot():
+    rng = np.random.default_rng(12)
+    a = rng.standard_normal((7, 7))
+    a[[0, 3]] = a[[3, 0]] * 1e-3  # a small leading pivot: the rows must be swapped
+    b = rng.standard_normal((7, 3))
+    x = b.copy()
+    assert pivoted_solve(a.copy(), x)
+    np.testing.assert_allclose(x, np.linalg.solve(a, b), rtol=1e-12, atol=1e-12)
+    assert not pivoted_solve(np.zeros((2, 2)), np.ones((2, 1)))
 
 
 def test_block_preconditioner_inverts_tiles():

@@ -79,6 +79,7 @@ __all__ = [
     "compliance_cg",
     "gmres",
     "padded_shape",
+    "pivoted_solve",
 ]
 
 #: Lags transformed per batch when the kernel spectra are built (bounds the temporary memory).
@@ -300,8 +301,54 @@ class OffsetConvolution:
 
 
 @njit(cache=True)
+def pivoted_solve(a, x):  # pragma: no cover - numba
+    """Solve a X = x in place by Gaussian elimination with partial pivoting and back substitution.
+
+    a (n, n) is destroyed; x (n, m) holds the m right-hand sides and receives the solution. Done
+    in numba rather than LAPACK so that small dense solves do not spawn BLAS threads that
+    oversubscribe the cores shared with other pipeline jobs. Returns False for an exactly singular
+    pivot (x is then partly eliminated).
+    """
+    n = a.shape[0]
+    m = x.shape[1]
+    for col in range(n):
+        piv = col
+        amax = abs(a[col, col])
+        for r in range(col + 1, n):
+            if abs(a[r, col]) > amax:
+                amax = abs(a[r, col])
+                piv = r
+        if amax == 0.0:
+            return False
+        if piv != col:
+            for c in range(n):
+                tmp = a[col, c]
+                a[col, c] = a[piv, c]
+                a[piv, c] = tmp
+            for q in range(m):
+                tmp = x[col, q]
+                x[col, q] = x[piv, q]
+                x[piv, q] = tmp
+        inv = 1.0 / a[col, col]
+        for r in range(col + 1, n):
+            fct = a[r, col] * inv
+            if fct != 0.0:
+                for c in range(col + 1, n):
+                    a[r, c] -= fct * a[col, c]
+                for q in range(m):
+                    x[r, q] -= fct * x[col, q]
+    for q in range(m):
+        for r in range(n - 1, -1, -1):
+            acc = x[r, q]
+            for c in range(r + 1, n):
+                acc -= a[r, c] * x[c, q]
+            x[r, q] = acc / a[r, r]
+    return True
+
+
+@njit(cache=True)
 def _tile_inverses(g_tile, k, bx, by, inv, loaded):  # pragma: no cover - numba
-    """inv[t] = (I + G_tile diag(k_t))^-1 of every tile t with a loaded element (Gauss-Jordan, partial pivoting).
+    """inv[t] = (I + G_tile diag(k_t))^-1 of every tile t with a loaded element (:func:`pivoted_solve`).
 
     k: (nx, ny) field; tile (tx, ty) covers [tx bx, tx bx + bx) x [ty by, ty by + by), elements
     beyond the patch count as k = 0 (unit Jacobian columns). loaded[t] = False: inv[t] is unused
@@ -311,7 +358,7 @@ def _tile_inverses(g_tile, k, bx, by, inv, loaded):  # pragma: no cover - numba
     n_ty = inv.shape[0] // ((nx + bx - 1) // bx)
     nb = bx * by
     kt = np.empty(nb)
-    a = np.empty((nb, 2 * nb))
+    a = np.empty((nb, nb))
     for t in range(inv.shape[0]):
         tx = t // n_ty
         ty = t - tx * n_ty
@@ -328,35 +375,11 @@ def _tile_inverses(g_tile, k, bx, by, inv, loaded):  # pragma: no cover - numba
         for i in range(nb):
             for j in range(nb):
                 a[i, j] = g_tile[i, j] * kt[j]
-                a[i, nb + j] = 0.0
+                inv[t, i, j] = 0.0
             a[i, i] += 1.0
-            a[i, nb + i] = 1.0
-        for col in range(nb):
-            piv = col
-            amax = abs(a[col, col])
-            for r in range(col + 1, nb):
-                if abs(a[r, col]) > amax:
-                    amax = abs(a[r, col])
-                    piv = r
-            if amax == 0.0:
-                return False
-            if piv != col:
-                for c in range(2 * nb):
-                    tmp = a[col, c]
-                    a[col, c] = a[piv, c]
-                    a[piv, c] = tmp
-            inv_p = 1.0 / a[col, col]
-            for c in range(2 * nb):
-                a[col, c] *= inv_p
-            for r in range(nb):
-                if r != col:
-                    fct = a[r, col]
-                    if fct != 0.0:
-                        for c in range(2 * nb):
-                            a[r, c] -= fct * a[col, c]
-        for i in range(nb):
-            for j in range(nb):
-                inv[t, i, j] = a[i, nb + j]
+            inv[t, i, i] = 1.0
+        if not pivoted_solve(a, inv[t]):
+            return False
     return True
 
 

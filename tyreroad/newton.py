@@ -53,6 +53,7 @@ from .convolution import (
     OffsetConvolution,
     compliance_cg,
     gmres,
+    pivoted_solve,
 )
 from .springs import SpringTable
 
@@ -305,11 +306,9 @@ def solve_step(b, zeta0, springs: SpringTable, substrate: Substrate, tolerance: 
 # --------------------------------------------------------------------------------------------
 @njit(cache=True)
 def _jacobian_block_solve(g0, active, ka, rhs):  # pragma: no cover - numba
-    """Solve (I + G0[A, A] diag(k_A)) x = rhs by Gaussian elimination with partial pivoting.
+    """Solve (I + G0[A, A] diag(k_A)) x = rhs (:func:`tyreroad.convolution.pivoted_solve`).
 
-    Done in numba rather than LAPACK so that the small dense solve does not spawn BLAS threads
-    that oversubscribe the cores shared with other pipeline jobs. Returns (x, ok); ok is False
-    for an exactly singular pivot.
+    Returns (x, ok); ok is False for an exactly singular pivot.
     """
     n = active.size
     a = np.empty((n, n))
@@ -318,37 +317,10 @@ def _jacobian_block_solve(g0, active, ka, rhs):  # pragma: no cover - numba
         for j in range(n):
             a[i, j] = g0[gi, active[j]] * ka[j]
         a[i, i] += 1.0
-    x = rhs.copy()
-    for col in range(n):
-        piv = col
-        amax = abs(a[col, col])
-        for r in range(col + 1, n):
-            if abs(a[r, col]) > amax:
-                amax = abs(a[r, col])
-                piv = r
-        if amax == 0.0:
-            return x, False
-        if piv != col:
-            for c in range(n):
-                tmp = a[col, c]
-                a[col, c] = a[piv, c]
-                a[piv, c] = tmp
-            tmp = x[col]
-            x[col] = x[piv]
-            x[piv] = tmp
-        inv = 1.0 / a[col, col]
-        for r in range(col + 1, n):
-            fct = a[r, col] * inv
-            if fct != 0.0:
-                for c in range(col + 1, n):
-                    a[r, c] -= fct * a[col, c]
-                x[r] -= fct * x[col]
-    for r in range(n - 1, -1, -1):
-        acc = x[r]
-        for c in range(r + 1, n):
-            acc -= a[r, c] * x[c]
-        x[r] = acc / a[r, r]
-    return x, True
+    x = np.empty((n, 1))
+    x[:, 0] = rhs
+    ok = pivoted_solve(a, x)
+    return x[:, 0], ok
 
 
 def offset_matrix(kernel_lag: np.ndarray) -> np.ndarray:
