@@ -36,10 +36,12 @@ __all__ = [
     "LoadingPreset",
     "LOADING_KINDS",
     "constant_acceleration_path",
+    "constant_acceleration_steps",
     "cycle_path",
     "harmonic_path",
     "read_loading_table",
     "uniform_indentation_grid",
+    "uniform_grid_steps",
 ]
 
 
@@ -144,18 +146,34 @@ def constant_acceleration_path(sample_rate: float, acceleration: float, d_max: f
     """
     fs = checks.real("sample_rate", sample_rate, positive=True)
     a = checks.real("acceleration", acceleration, positive=True)
-    d_max = checks.real("d_max", d_max, positive=True)
-    n_last = math.ceil(fs * math.sqrt(2.0 * d_max / a) * (1.0 - 1e-12))
-    time = np.arange(n_last + 1) / fs
+    time = np.arange(constant_acceleration_steps(fs, a, d_max)) / fs
     return time, 0.5 * a * time**2
+
+
+def constant_acceleration_steps(sample_rate: float, acceleration: float, d_max: float) -> int:
+    """Steps of :func:`constant_acceleration_path`: n = 0 ... ceil(fs sqrt(2 d_max / a)) [1].
+
+    The one place of this count (planning checks, cluster requests and the run itself use it): the
+    ceiling is taken after a relative 1e-12 shrink, so that a d_max hit exactly at a sample (to
+    round-off) ends the run there instead of one step later.
+    """
+    fs = checks.real("sample_rate", sample_rate, positive=True)
+    a = checks.real("acceleration", acceleration, positive=True)
+    d_max = checks.real("d_max", d_max, positive=True)
+    return math.ceil(fs * math.sqrt(2.0 * d_max / a) * (1.0 - 1e-12)) + 1
 
 
 def uniform_indentation_grid(d_max: float, step: float) -> np.ndarray:
     """Indentations 0, dd, 2 dd, ... up to the first point >= d_max [m] (quasi-static runs)."""
+    return np.arange(uniform_grid_steps(d_max, step)) * step
+
+
+def uniform_grid_steps(d_max: float, step: float) -> int:
+    """Points of :func:`uniform_indentation_grid`: 0 ... ceil(d_max / step) (same rounding as
+    :func:`constant_acceleration_steps`) [1]."""
     d_max = checks.real("d_max", d_max, positive=True)
     step = checks.real("step", step, positive=True)
-    n_last = math.ceil(d_max / step * (1.0 - 1e-12))
-    return np.arange(n_last + 1) * step
+    return math.ceil(d_max / step * (1.0 - 1e-12)) + 1
 
 
 # --------------------------------------------------------------------------------------------
