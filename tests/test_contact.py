@@ -21,6 +21,7 @@ from tyreroad.contact import (
     solve_quasistatic,
 )
 from tyreroad.history import DenseHistory
+from tyreroad.kernel import LayerKernel
 from tyreroad.layer import backing_force, backing_force_transfer
 from tyreroad.reference import sdof
 from tyreroad.reference.dense import dense_history_sum, lag_matrix
@@ -367,15 +368,15 @@ def test_nonconvergence_raises_with_step_d_and_residual(realistic_run):
 def test_kernel_and_table_validation():
     k, f, step = linear_tables(1e4)
     with pytest.raises(ValueError, match="offset axis"):
-        solve_path([[0.0, 0.0]], np.vstack([k, k]), np.vstack([f, f]), step, np.ones((1, 2, 3)), [0.0],
+        solve_path([[0.0, 0.0]], np.vstack([k, k]), np.vstack([f, f]), step, LayerKernel.dynamic(np.ones((1, 2, 3)), 51200.0), [0.0],
                    SolverSettings())
     with pytest.raises(ValueError, match="spring tables"):
-        solve_path([[0.0]], np.vstack([k, k]), np.vstack([f, f]), step, np.ones((1, 1, 3)), [0.0],
+        solve_path([[0.0]], np.vstack([k, k]), np.vstack([f, f]), step, LayerKernel.dynamic(np.ones((1, 1, 3)), 51200.0), [0.0],
                    SolverSettings())
     # a larger centred table is cropped to the patch
     big = np.zeros((5, 5, 1))
     big[2, 2, 0] = 3e-5
-    res = solve_path([[0.0]], k, f, step, big, [1e-4], SolverSettings())
+    res = solve_path([[0.0]], k, f, step, LayerKernel.quasistatic(big[:, :, 0]), [1e-4], SolverSettings())
     assert res.force[0] == pytest.approx(1e-4 / (1 / 1e4 + 3e-5), rel=1e-12)
 
 
@@ -592,7 +593,7 @@ class StaircaseLoading:
 def test_extra_history_and_new_loading_plug_into_the_march():
     """A constant-offset history equals the same run with the offset removed from the indentation,
     and a per-element loading runs through the unchanged march and Newton driver."""
-    from tyreroad.contact import RunRecorder, build_collaborators, march
+    from tyreroad.contact import RunRecorder, march
     from tyreroad.history import HistorySum
     from tyreroad.loading import IndentationPath
 
@@ -607,11 +608,12 @@ def test_extra_history_and_new_loading_plug_into_the_march():
     offset = 4e-6  # m, every element pushed 4 um into the layer by the extra history
     for method in ("dense", "fft"):
         s = dataclasses.replace(settings, method=method)
-        substrate, kept = build_collaborators(kernel, (nx, ny), s)
+        substrate, kept = LayerKernel.dynamic(kernel, 51200.0).collaborators((nx, ny), s)
         extra = ConstantOffsetHistory(np.full(nx * ny, offset))
         loading = IndentationPath(z1, d, time=np.arange(d.size) / 51200.0)
         res = march(loading, table, substrate, HistorySum([kept, extra]), s, RunRecorder(d.size, (nx, ny)))
-        ref = solve_path(z1, k, f, step, kernel, d - offset, s, time=np.arange(d.size) / 51200.0)
+        ref = solve_path(z1, k, f, step, LayerKernel.dynamic(kernel, 51200.0), d - offset, s,
+                         time=np.arange(d.size) / 51200.0)
         np.testing.assert_allclose(res.force, ref.force, rtol=1e-10, atol=1e-10 * ref.force.max())
         # the offset is part of the displacement w, not of the spring compression
         np.testing.assert_allclose(res.displacement - offset, ref.displacement, rtol=0, atol=1e-14)
@@ -620,7 +622,7 @@ def test_extra_history_and_new_loading_plug_into_the_march():
 
     # a per-element loading: the tilt makes the elements meet the road at different times
     tilt = np.linspace(-2e-5, 2e-5, nx * ny)
-    substrate, kept = build_collaborators(kernel, (nx, ny), settings)
+    substrate, kept = LayerKernel.dynamic(kernel, 51200.0).collaborators((nx, ny), settings)
     stairs = StaircaseLoading(z1, d, tilt)
     res = march(stairs, table, substrate, kept, settings, RunRecorder(d.size, (nx, ny)))
     n_steps = d.size

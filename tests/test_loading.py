@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from tyreroad.contact import RunRecorder, SolverSettings, build_collaborators, loading_dataset, march
+from tyreroad.contact import RunRecorder, SolverSettings, loading_dataset, march
+from tyreroad.kernel import LayerKernel
 from tyreroad.hysteresis import aggregate_loading, dissipated_energy, hysteresis_section, loading_work
 from tyreroad.loading import LoadingPreset, SeparatingPath, cycle_path, harmonic_path, read_loading_table
 from tyreroad.material import material_from_config
@@ -120,9 +121,8 @@ def _run(problem, mode, method="dense"):
     preset = LoadingPreset("cycle", CYCLE)
     loading = preset.loading(z1, mode, FS, 2e-6)
     settings = SolverSettings(method=method)
-    k = kernel if mode == "dynamic" else g_static[:, :, None]
-    substrate, history = build_collaborators(k, z1.shape, settings, 1, loading.n_steps,
-                                             tail if mode == "dynamic" else None)
+    layer = LayerKernel.dynamic(kernel, FS, tail) if mode == "dynamic" else LayerKernel.quasistatic(g_static)
+    substrate, history = layer.collaborators(z1.shape, settings, 1, loading.n_steps)
     res = march(loading, springs, substrate, history, settings, RunRecorder(loading.n_steps, z1.shape))
     return preset, loading, res
 
@@ -170,7 +170,7 @@ def test_path_that_runs_out_before_separation_is_an_error(cycle_problem):
     cut = release + 5  # still pressed into the road
     loading = SeparatingPath(z1, d[:cut], t[:cut], release)
     settings = SolverSettings()
-    substrate, history = build_collaborators(kernel, z1.shape, settings, 1, cut, tail)
+    substrate, history = LayerKernel.dynamic(kernel, FS, tail).collaborators(z1.shape, settings, 1, cut)
     with pytest.raises(ContactConvergenceError, match="elements still in contact"):
         march(loading, springs, substrate, history, settings, RunRecorder(cut, z1.shape))
 

@@ -12,7 +12,8 @@ from tyreroad.greens import greens_dataset
 from tyreroad.history import TailHistory, _tail_update
 from tyreroad.material import material_from_config
 from tyreroad.memory import TailModel, fit_retardation_spectrum, wrapped_creep
-from tyreroad.newton import offset_matrix
+from tyreroad.influence import offset_matrix
+from tyreroad.kernel import LayerKernel
 from tyreroad.reference.creep import creep_by_inversion, fractional_kv_creep, mittag_leffler_neg
 
 FS = 51200.0
@@ -149,7 +150,7 @@ def test_step_response_with_tail_is_the_creep(tread_greens_6x6):
     ds = tread_greens_6x6
     g = ds["g"].transpose("dx", "dy", "lag").values
     g_static = ds["g_static"].transpose("dx", "dy").values
-    tail = TailModel.from_greens(ds)
+    tail = LayerKernel.from_greens(ds, "dynamic").memory
     centre = (g.shape[0] - 1) // 2
     times = np.array([0.01, 0.1, 1.0])
     steps = np.round(times * FS).astype(int)
@@ -171,9 +172,8 @@ def test_correspondence_oracle_ramp_and_hold():
     n = 5
     mat = tread(density=1e-6)  # kg/m^3: a massless layer
     ds = greens_dataset(mat, (n, n), 1e-3, FS, 256, 4096)
-    g = ds["g"].transpose("dx", "dy", "lag").values
+    layer = LayerKernel.from_greens(ds, "dynamic")
     g_static = ds["g_static"].transpose("dx", "dy").values
-    tail = TailModel.from_greens(ds)
     k_spring = 1e9  # N/m per element: rigid against the layer's ~3e4 N/m
     k_tab = np.full((n * n, 3), k_spring)
     f_tab = k_spring * 1e-3 * np.arange(3)[None, :] * np.ones((n * n, 1))
@@ -181,7 +181,7 @@ def test_correspondence_oracle_ramp_and_hold():
     time = np.arange(int(round(1.0 * FS)) + 1) / FS
     d = np.minimum(v * time, v * t1)
     z1 = np.zeros((n, n))
-    res = solve_path(z1, k_tab, f_tab, 1e-3, g, d, SolverSettings(method="dense"), time=time, tail=tail)
+    res = solve_path(z1, k_tab, f_tab, 1e-3, layer, d, SolverSettings(method="dense"), time=time)
     assert np.all(res.contact_count[1:] == n * n)
     compliance = offset_matrix(g_static) + np.eye(n * n) / k_spring
     k_patch = np.linalg.solve(compliance, np.ones(n * n)).sum()  # quasi-static patch stiffness [N/m]
@@ -196,7 +196,7 @@ def test_correspondence_oracle_ramp_and_hold():
         i = int(round(t_ms * 1e-3 * FS))
         assert res.force[i] == pytest.approx(closed_form(time[i]), rel=tol), t_ms
     # without the tail the same run forgets the creep after 5 ms: the relaxed force is far too high
-    short = solve_path(z1, k_tab, f_tab, 1e-3, g, d[:300], SolverSettings(method="dense"), time=time[:300], tail=tail)
+    short = solve_path(z1, k_tab, f_tab, 1e-3, layer, d[:300], SolverSettings(method="dense"), time=time[:300])
     np.testing.assert_array_equal(short.force, res.force[:300])
     with pytest.raises(ValueError, match=r"needs 51201 steps .* greens.n_lags = 256"):
-        solve_path(z1, k_tab, f_tab, 1e-3, g, d, SolverSettings(long_memory=False), time=time, tail=tail)
+        solve_path(z1, k_tab, f_tab, 1e-3, layer, d, SolverSettings(long_memory=False), time=time)

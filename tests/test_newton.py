@@ -12,7 +12,8 @@ from tyreroad import contact, greens
 from tyreroad.contact import ContactConvergenceError, SolverSettings, solve_quasistatic
 from tyreroad.history import DenseHistory
 from tyreroad.loading import IndentationPath
-from tyreroad.newton import DenseSubstrate, StepConvergenceError, offset_matrix, solve_step
+from tyreroad.influence import offset_matrix
+from tyreroad.newton import DenseSubstrate, StepConvergenceError, solve_step
 from tyreroad.springs import SpringTable, linear_tables
 
 E, NU, H, C = 25e6, 0.49, 0.01, 1e-3  # the study's layer: Pa, -, m, m

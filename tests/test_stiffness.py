@@ -13,12 +13,12 @@ from tyreroad.greens import element_frf, greens_dataset, static_element_kernel, 
 from tyreroad.loading import LoadingPreset
 from tyreroad.material import material_from_config
 from tyreroad.springs import SpringTable
+from tyreroad.convolution import OffsetConvolution
+from tyreroad.influence import OffsetInfluence, contact_set_stiffness, contact_set_stiffness_krylov, offset_matrix
+from tyreroad.kernel import ElementFRF, LayerKernel
+from tyreroad.newton import DenseSubstrate, FFTSubstrate
 from tyreroad.stiffness import (
-    OffsetOperator,
     SpectrumSettings,
-    TangentStiffness,
-    contact_set_stiffness,
-    contact_set_stiffness_krylov,
     first_harmonic,
     frequency_grid,
     harmonic_stiffness,
@@ -81,7 +81,8 @@ def spectra(patch):
     """Dense and matrix-free spectra of the 8 x 8 patch at three preloads."""
     spec = SpectrumSettings(preloads=(5e-5, 1e-4, 1.5e-4), n_frequencies=24)
     settings = SolverSettings(quasistatic_step=1e-5)
-    return {m: stiffness_spectrum(patch["z1"], patch["springs"], patch["g_static"], patch["mat"], C, FS, spec,
+    return {m: stiffness_spectrum(patch["z1"], patch["springs"], LayerKernel.quasistatic(patch["g_static"]),
+                                  ElementFRF(patch["mat"], C), patch["mat"], FS, spec,
                                   settings, method=m) for m in ("dense", "fft")}
 
 
@@ -132,7 +133,7 @@ def test_dense_and_krylov_contact_set_stiffness_against_the_direct_formula():
     c = np.flatnonzero(k)
     direct = np.ones(c.size) @ np.linalg.solve(g[np.ix_(c, c)] + np.diag(1 / k[c]), np.ones(c.size))
     assert contact_set_stiffness(g, k) == pytest.approx(direct, rel=1e-12)
-    op = OffsetOperator(table, shape)
+    op = OffsetInfluence(table, shape)
     v = rng.standard_normal(shape) + 1j * rng.standard_normal(shape)
     assert np.allclose(op(v).ravel(), g @ v.ravel(), rtol=0, atol=1e-14 * np.abs(g).max() * np.abs(v).sum())
     value, its, _ = contact_set_stiffness_krylov(op, k.reshape(shape), op.g_self, 1e-13)
@@ -151,7 +152,8 @@ def test_one_element_with_a_linear_spring():
     mat = material(TREAD)
     spec = SpectrumSettings(preloads=(1e-5, 1e-4), n_frequencies=30, figure_preload=1e-4)
     g_static = static_table(mat, (1, 1))
-    ds = stiffness_spectrum(np.zeros((1, 1)), springs, g_static, mat, C, FS, spec, SolverSettings(quasistatic_step=1e-5))
+    ds = stiffness_spectrum(np.zeros((1, 1)), springs, LayerKernel.quasistatic(g_static), ElementFRF(mat, C), mat, FS,
+                            spec, SolverSettings(quasistatic_step=1e-5))
     f = ds["frequency"].values
     w = 2 * np.pi * f
     g_self = element_frf(np.zeros((1, 2)), C, w, mat.modulus(w), mat.poisson, mat.density, mat.thickness)[:, 0]
@@ -205,12 +207,25 @@ def test_quasistatic_tangent_equals_the_finite_difference_of_a_1um_run(patch):
     assert np.array_equal(ds["tangent_stiffness"].values, tangent)
 
 
-def test_tangent_stiffness_validation_and_no_contact():
-    g = np.ones((3, 3))
-    with pytest.raises(ValueError, match="method"):
-        TangentStiffness(g, (2, 2), method="lu")
-    for method in ("dense", "fft"):
-        assert TangentStiffness(g * 1e-5, (2, 2), method)(np.zeros(4)) == 0.0
+def test_substrate_tangent_with_no_contact_and_a_table_that_is_not_even():
+    """Both substrates give K = 0 without contact; the FFT substrate's COCG tangent (a lag-0 table
+    that is not even: no CG, no predictor) equals the dense solve over the same operator."""
+    g = np.full((3, 3), 1e-6)
+    g[1, 1] = 1e-5
+    for substrate in (DenseSubstrate(g), FFTSubstrate(OffsetConvolution(g[:, :, None], (2, 2)), 1e-12)):
+        assert substrate.tangent(np.zeros(4)).stiffness == 0.0
+    skew = g.copy()
+    skew[0, 1] = 2e-6  # offset (-1, 0) differs from (1, 0): G_0 not symmetric
+    fft = FFTSubstrate(OffsetConvolution(skew[:, :, None], (2, 2)), 1e-12)
+    assert not fft.use_cg
+    k = np.array([1e5, 0.0, 3e5, 2e4])
+    tangent = fft.tangent(k)
+    assert tangent.direction is None  # no CG solve: nothing to predict with
+    assert tangent.stiffness == pytest.approx(DenseSubstrate(skew).tangent(k).stiffness, rel=1e-10)
+    active = np.flatnonzero(k)
+    g_aa = offset_matrix(skew)[np.ix_(active, active)]
+    direct = np.ones(3) @ np.linalg.solve(g_aa + np.diag(1 / k[active]), np.ones(3))
+    assert tangent.stiffness == pytest.approx(direct, rel=1e-10)
 
 
 def test_zero_frequency_limit_equals_the_quasistatic_tangent(spectra, patch):
@@ -224,7 +239,7 @@ def test_zero_frequency_limit_equals_the_quasistatic_tangent(spectra, patch):
     for p, d0 in enumerate(ds["preload"].values):
         path = d0 + np.array([-1e-8, 0.0, 1e-8])
         res = solve_path(patch["z1"], springs.stiffness, springs.force, springs.zeta_step,
-                         patch["g_static"][:, :, None], np.concatenate([[0.5 * d0], path]), SolverSettings())
+                         LayerKernel.quasistatic(patch["g_static"]), np.concatenate([[0.5 * d0], path]), SolverSettings())
         assert (res.force[3] - res.force[1]) / 2e-8 == pytest.approx(k_qs[p], rel=1e-5)
         assert res.force[2] == pytest.approx(float(ds["preload_force"][p]), rel=1e-12)
     # the fractional tread is still much stiffer than its relaxed modulus at 10 Hz
@@ -253,7 +268,8 @@ def test_loss_stiffness_nonnegative_for_variants(patch, name):
     spec = {"loss0.5": {**TREAD, "loss_scale": 0.5}, "loss1.5": {**TREAD, "loss_scale": 1.5},
             "rho2": {**TREAD, "density_scale": 2.0}, "maxwell": MAXWELL}[name]
     mat = material(spec)
-    ds = stiffness_spectrum(patch["z1"], patch["springs"], patch["g_static"], mat, C, FS,
+    ds = stiffness_spectrum(patch["z1"], patch["springs"], LayerKernel.quasistatic(patch["g_static"]),
+                            ElementFRF(mat, C), mat, FS,
                             SpectrumSettings(preloads=(1e-4,), n_frequencies=40), SolverSettings(quasistatic_step=1e-5))
     assert np.all(ds["loss_stiffness"].values > 0)
 
@@ -287,17 +303,14 @@ def test_harmonic_run_matches_k_star(frequency, periods):
     g_static = greens["g_static"].transpose("dx", "dy").values
     settings = SolverSettings(quasistatic_step=1e-5, method="dense")
     spec = SpectrumSettings(preloads=(1e-4,), n_frequencies=10, report_frequencies=(frequency,))
-    ds = stiffness_spectrum(z1, springs, g_static, mat, C, sample_rate, spec, settings)
+    ds = stiffness_spectrum(z1, springs, LayerKernel.quasistatic(g_static), ElementFRF(mat, C), mat, sample_rate, spec, settings)
     expected = complex(k_star(ds.sel(frequency=frequency))[0])
     hold, speed = 5e-3, 0.1
     preset = LoadingPreset("h", {"kind": "harmonic", "preload": 1e-4, "preload_speed": speed, "relax_time": hold,
                                  "amplitude": 1e-6, "frequency": frequency, "periods": periods})
     t, d, _ = preset.path("dynamic", sample_rate, settings.quasistatic_step)
-    from tyreroad.memory import TailModel
-
     res = solve_path(z1, springs.stiffness, springs.force, springs.zeta_step,
-                     greens["g"].transpose("dx", "dy", "lag").values, d, settings, time=t,
-                     tail=TailModel.from_greens(greens))
+                     LayerKernel.from_greens(greens, "dynamic"), d, settings, time=t)
     start = 1e-4 / speed + hold
     measured = harmonic_stiffness(res, frequency, start + 2 / frequency)
     assert abs(abs(measured) / abs(expected) - 1) < 0.01

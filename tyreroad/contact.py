@@ -42,20 +42,18 @@ import dataclasses
 import logging
 import math
 from dataclasses import dataclass
-from typing import Sequence
 
 import numba
 import numpy as np
 import xarray as xr
 
 from . import checks
-from .convolution import OffsetConvolution, check_offset_kernel
-from .history import DenseHistory, FFTHistory, History, HistorySum, TailHistory
-from .layer import backing_force
-from .memory import TailModel
+from .history import History
+from .influence import Tangent
+from .kernel import LayerKernel
 from .loading import IndentationPath, Loading, LoadingPreset, constant_acceleration_path, uniform_indentation_grid
-from .newton import DenseSubstrate, FFTSubstrate, StepConvergenceError, Substrate, solve_step
-from .solver import FFT_THRESHOLD, SolverSettings
+from .newton import StepConvergenceError, Substrate, solve_step
+from .solver import SolverSettings
 from .springs import SpringTable
 
 logger = logging.getLogger(__name__)
@@ -67,10 +65,7 @@ __all__ = [
     "ContactResult",
     "RunRecorder",
     "march",
-    "build_collaborators",
     "run_loading_path",
-    "dynamic_indentation",
-    "quasistatic_indentation",
     "solve_path",
     "solve_dynamic",
     "solve_quasistatic",
@@ -148,16 +143,15 @@ class RunRecorder:
         Steps of the run.
     shape : tuple of int
         Patch (nx, ny).
-    tangent : callable, optional
-        k_e of a converged state -> dF/dd [N/m] (quasi-static runs:
-        :class:`tyreroad.stiffness.TangentStiffness`); stored per step as ``tangent_stiffness``.
+    tangent : bool
+        Keep the quasi-static tangent dF/dd of every step (``tangent_stiffness``; runs on a static
+        kernel, whose march linearises every solved state).
     """
 
-    def __init__(self, n_steps: int, shape: tuple[int, int], tangent=None):
+    def __init__(self, n_steps: int, shape: tuple[int, int], tangent: bool = False):
         n_elem = shape[0] * shape[1]
         self.shape = shape
-        self.tangent = tangent
-        self.tangent_stiffness = None if tangent is None else np.zeros(n_steps)
+        self.tangent_stiffness = np.zeros(n_steps) if tangent else None
         self.force = np.zeros((n_steps, n_elem))
         self.compression = np.zeros((n_steps, n_elem))
         self.displacement = np.zeros((n_steps, n_elem))
@@ -166,8 +160,9 @@ class RunRecorder:
         self.krylov_iterations = np.zeros(n_steps, dtype=np.int64)
         self.residual = np.zeros(n_steps)
 
-    def store(self, n: int, step, displacement: np.ndarray) -> None:
-        """Record the converged ``step`` (a :class:`tyreroad.newton.StepResult`) of step n."""
+    def store(self, n: int, step, displacement: np.ndarray, tangent: Tangent | None = None) -> None:
+        """Record the converged ``step`` (a :class:`tyreroad.newton.StepResult`) of step n, and its
+        tangent where the march linearised it."""
         self.force[n] = step.force
         self.compression[n] = step.zeta
         self.displacement[n] = displacement
@@ -175,8 +170,10 @@ class RunRecorder:
         self.newton_iterations[n] = step.newton_iterations
         self.krylov_iterations[n] = step.krylov_iterations
         self.residual[n] = step.residual
-        if self.tangent is not None:
-            self.tangent_stiffness[n] = self.tangent(step.stiffness)
+        if self.tangent_stiffness is not None:
+            if tangent is None:
+                raise ValueError(f"RunRecorder.store: step {n} has no tangent, but the recorder keeps one per step")
+            self.tangent_stiffness[n] = tangent.stiffness
 
     def result(self, loading: Loading, n_steps: int | None = None) -> ContactResult:
         """The :class:`ContactResult` of the first ``n_steps`` recorded steps (default all)."""
@@ -208,12 +205,15 @@ def march(
     history: History,
     settings: SolverSettings,
     recorder: RunRecorder,
+    linearise: bool = False,
 ) -> ContactResult:
     """Solve the contact step by step along a loading.
 
     Step n: b = free_compression(n) - h[n]; Newton from the previous solution shifted by the
     change of b (warm start; before step 0 the previous solution is the loading's rest state);
-    w[n] = h[n] + G0 F[n]; the history records F[n].
+    w[n] = h[n] + G0 F[n]; the history records F[n]. With ``linearise`` (a static kernel: every
+    step a static state) the substrate's tangent of each solved state goes to the recorder and,
+    as the predictor of its first Newton step, to the next step.
 
     Parameters
     ----------
@@ -228,7 +228,9 @@ def march(
     settings : SolverSettings
         Tolerance and iteration limit.
     recorder : RunRecorder
-        Where the steps go.
+        Where the steps go (``store(n, step, w, tangent)`` and ``result(loading[, n])``).
+    linearise : bool
+        Linearise every solved state (``substrate.tangent``): quasi-static runs.
 
     Returns
     -------
@@ -244,16 +246,20 @@ def march(
     zeta = loading.rest_compression()
     b_prev = zeta.copy()
     report_every = max(1, n_steps // 10)
+    tangent = None
     for n in range(n_steps):
         h = history.displacement(n)
         b = loading.free_compression(n) - h
         try:
-            step = solve_step(b, zeta, springs, substrate, settings.tolerance, settings.max_iterations, shift=b - b_prev)
+            step = solve_step(b, zeta, springs, substrate, settings.tolerance, settings.max_iterations,
+                              shift=b - b_prev, predictor=tangent)
         except StepConvergenceError as err:
             raise ContactConvergenceError(f"contact step {n} ({loading.describe(n)}): {err}") from err
         b_prev, zeta = b, step.zeta
         history.record(n, step.force)
-        recorder.store(n, step, h + substrate.instant(step.force))
+        w = h + substrate.instant(step.force)
+        tangent = substrate.tangent(step.stiffness) if linearise else None
+        recorder.store(n, step, w, tangent)
         finished = loading.done(n, step.force)
         if finished or n % report_every == 0 or n == n_steps - 1:
             logger.info(
@@ -273,67 +279,45 @@ def march(
 # Assembling a run
 # --------------------------------------------------------------------------------------------
 def _set_threads(threads: int) -> None:
+    """The numba thread count of a run (the one place that sets it, process-wide)."""
     threads = checks.integer("threads", threads)
     numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
 
 
-def build_collaborators(
-    kernel, shape, settings: SolverSettings, threads: int = 1, n_steps: int | None = None, tail=None
-) -> tuple[Substrate, History]:
-    """The substrate (G0, Newton linear solve) and history (kept lags, and the tail) of ``settings.method``.
+def run_loading_path(loading: Loading, springs, kernel: LayerKernel, settings: SolverSettings, threads: int = 1,
+                     recorder=None):
+    """Assemble the collaborators for a loading on a patch and march (the entry point of every run).
 
     Parameters
     ----------
-    kernel : array_like
-        g[dx, dy, lag] [m/N], offsets -(nx-1) ... nx-1 (a larger centred table is cropped).
-    shape : tuple of int
-        Patch (nx, ny).
+    loading : Loading
+        The prescribed motion; ``loading.shape`` is the patch (nx, ny).
+    springs : SpringTable
+        One spring per element (or any object with the springs protocol of :mod:`tyreroad.newton`).
+    kernel : tyreroad.kernel.LayerKernel
+        The layer: its substrate, history and memory (:meth:`LayerKernel.collaborators`); a static
+        kernel makes every step a static state whose tangent dF/dd is kept.
     settings : SolverSettings
-        ``method`` picks dense or FFT; ``preconditioner_block`` and ``tolerance`` the FFT solver.
+        Method, tolerance, iteration limit, long memory.
     threads : int
-        FFT workers and numba threads.
-    n_steps : int, optional
-        Steps of the run; a run longer than the kept lags of a dynamic (multi-lag) kernel needs
-        the tail.
-    tail : tyreroad.memory.TailModel, optional
-        The kernel beyond its kept lags; used when the run is longer than the kept lags and
-        ``settings.long_memory`` is on.
+        numba threads and FFT workers.
+    recorder : optional
+        What keeps the steps (``store(n, step, w, tangent)`` and ``result(loading[, n])``); default
+        a :class:`RunRecorder`, which for a static kernel also stores the tangent stiffness dF/dd.
 
     Returns
     -------
-    substrate, history
-
-    Raises
-    ------
-    ValueError
-        If the run needs more memory than the kernel provides (no tail, or long memory off).
+    The recorder's result (a :class:`ContactResult` for the default recorder).
     """
-    nx, ny = shape
-    g = check_offset_kernel(kernel, nx, ny)
-    n_lags = g.shape[2]
-    method = settings.resolved_method(nx * ny, n_steps, n_lags)
-    needs_tail = n_lags > 1 and n_steps is not None and n_steps > n_lags
-    if needs_tail and (tail is None or not settings.long_memory):
-        why = "solver.long_memory is off" if tail is not None else "the kernel has no tail (a greens file without one)"
-        raise ValueError(
-            f"the run needs {n_steps} steps of memory but the kernel keeps greens.n_lags = {n_lags} lags and "
-            f"{why}: switch solver.long_memory on (with a greens file from this version), or raise greens.n_lags "
-            f"to >= {n_steps}"
-        )
-    if method == "fft":
-        conv = OffsetConvolution(g, shape, workers=threads)
-        logger.info("FFT/Newton-Krylov path: %d x %d elements, %d lags, padded grid %s", nx, ny, n_lags, conv.padded)
-        substrate = FFTSubstrate(conv, settings.tolerance, block=settings.preconditioner_block,
-                                 eta_max=settings.krylov_forcing)
-        history = FFTHistory(conv)
-    else:
-        substrate, history = DenseSubstrate(g[:, :, 0]), DenseHistory(g, shape)
-    if needs_tail:
-        if tail.delay != n_lags:
-            raise ValueError(f"tail: starts at lag {tail.delay}, but the kernel keeps {n_lags} lags")
-        logger.info("long memory: tail from lag %d, %d retardation terms", tail.delay, tail.weights.size)
-        history = HistorySum([history, TailHistory(tail, shape, method, workers=threads)])
-    return substrate, history
+    if not isinstance(settings, SolverSettings):
+        raise TypeError(f"settings: expected SolverSettings, got {type(settings).__name__}")
+    if not isinstance(kernel, LayerKernel):
+        raise TypeError(f"kernel: expected a LayerKernel (tyreroad.kernel), got {type(kernel).__name__}")
+    _set_threads(threads)
+    substrate, history = kernel.collaborators(loading.shape, settings, threads, loading.n_steps)
+    if recorder is None:
+        recorder = RunRecorder(loading.n_steps, loading.shape, tangent=kernel.static)
+    return march(loading, springs, substrate, history, settings, recorder, linearise=kernel.static)
 
 
 def solve_path(
@@ -341,19 +325,17 @@ def solve_path(
     stiffness,
     force,
     zeta_step: float,
-    kernel,
+    kernel: LayerKernel,
     indentation,
     settings: SolverSettings,
     time=None,
     threads: int = 1,
-    extra_histories: Sequence[History] = (),
-    tail=None,
 ) -> ContactResult:
     """Solve the contact of a flat tread surface along a prescribed indentation path.
 
-    Step n uses lags 1 ... L-1 of ``kernel`` for the history, i.e. the indentations are
-    assumed to be sampled at the kernel's sample rate (for a one-lag kernel the steps are
-    independent static problems, linked only through the warm start).
+    Step n of a dynamic kernel uses its lags 1 ... L-1 (and its memory) for the history, i.e. the
+    indentations are taken as sampled at the kernel's sample rate; on a static kernel the steps
+    are independent static states, linked only through the warm start.
 
     Parameters
     ----------
@@ -364,8 +346,8 @@ def solve_path(
         (nx * ny, n_zeta).
     zeta_step : float
         Spring table step [m].
-    kernel : array_like
-        g[dx, dy, lag] [m/N], offsets -(nx-1) ... nx-1 (a larger centred table is cropped).
+    kernel : tyreroad.kernel.LayerKernel
+        The layer's kernel (:meth:`LayerKernel.dynamic`, :meth:`LayerKernel.quasistatic`).
     indentation : array_like
         d_n [m], one per step (any order: loading, holding, unloading).
     settings : SolverSettings
@@ -374,10 +356,6 @@ def solve_path(
         t_n [s], stored in the result.
     threads : int
         numba threads and FFT workers.
-    extra_histories : sequence of History
-        Further history terms added to the kept lags.
-    tail : tyreroad.memory.TailModel, optional
-        The kernel beyond its kept lags (SPEC 9): needed by runs longer than the kept lags.
 
     Returns
     -------
@@ -390,171 +368,48 @@ def solve_path(
     """
     loading = IndentationPath(z1, indentation, time)
     springs = SpringTable.checked(stiffness, force, zeta_step, math.prod(loading.shape))
-    return run_loading_path(loading, springs, kernel, settings, threads, tail, extra_histories)
+    return run_loading_path(loading, springs, kernel, settings, threads)
 
 
-def run_loading_path(loading, springs, kernel, settings: SolverSettings, threads: int = 1, tail=None,
-                     extra_histories: Sequence[History] = (), recorder=None):
-    """Assemble the collaborators for a loading on a patch and march (the entry point of every run).
+def solve_dynamic(z1, stiffness, force, zeta_step: float, kernel, sample_rate: float, acceleration: float,
+                  settings: SolverSettings, threads: int = 1, tail=None) -> ContactResult:
+    """:func:`solve_path` of the seed's loading d(t) = a t^2 / 2 on a dynamic kernel given as arrays.
 
-    Parameters
-    ----------
-    loading : Loading
-        The prescribed motion; ``loading.shape`` is the patch (nx, ny).
-    springs : SpringTable
-        One spring per element (or any object with the springs protocol of :mod:`tyreroad.newton`).
-    kernel : array_like
-        g[dx, dy, lag] [m/N]; a one-lag kernel is the quasi-static case.
-    settings : SolverSettings
-        Method, tolerance, iteration limit, long memory.
-    threads : int
-        numba threads and FFT workers.
-    tail : tyreroad.memory.TailModel, optional
-        The kernel beyond its kept lags.
-    extra_histories : sequence of History
-        Further history terms.
-    recorder : optional
-        What keeps the steps (``store(n, step, w)`` and ``result(loading[, n])``); default a
-        :class:`RunRecorder`, which for a one-lag kernel also stores the tangent stiffness dF/dd.
-
-    Returns
-    -------
-    The recorder's result (a :class:`ContactResult` for the default recorder).
+    ``kernel`` is g[dx, dy, lag] [m/N] sampled at ``sample_rate`` [Hz], ``tail`` its memory model
+    (:class:`tyreroad.memory.TailModel`) for runs longer than the kept lags; the run goes from
+    t = 0 to the first step with d >= ``settings.d_max`` at ``acceleration`` [m/s^2].
     """
-    if not isinstance(settings, SolverSettings):
-        raise TypeError(f"settings: expected SolverSettings, got {type(settings).__name__}")
-    _set_threads(threads)
-    shape = loading.shape
-    substrate, history = build_collaborators(kernel, shape, settings, threads, loading.n_steps, tail)
-    if extra_histories:
-        history = HistorySum([history, *extra_histories])
-    if recorder is None:
-        tangent = None
-        if np.shape(kernel)[2] == 1 and not extra_histories:
-            # a one-lag kernel: every step is a static state, whose tangent dF/dd is stored; the
-            # FFT substrate solves it with its own preconditioned CG and keeps dzeta/dd as the
-            # next step's predictor
-            if getattr(substrate, "use_cg", False):
-                tangent = substrate.tangent_stiffness
-            else:
-                from .stiffness import TangentStiffness
-
-                tangent = TangentStiffness(np.asarray(kernel)[:, :, 0], shape,
-                                           settings.resolved_method(shape[0] * shape[1]), workers=threads)
-        recorder = RunRecorder(loading.n_steps, shape, tangent)
-    return march(loading, springs, substrate, history, settings, recorder)
-
-
-def dynamic_indentation(sample_rate: float, acceleration: float, d_max: float) -> tuple[np.ndarray, np.ndarray]:
-    """t_n = n / fs and d_n = a t_n^2 / 2 until d reaches d_max (:func:`tyreroad.loading.constant_acceleration_path`)."""
-    return constant_acceleration_path(sample_rate, acceleration, d_max)
-
-
-def quasistatic_indentation(settings: SolverSettings) -> np.ndarray:
-    """Uniform indentation grid 0, dd, 2 dd, ... up to the first point >= d_max [m]."""
-    return uniform_indentation_grid(settings.d_max, settings.quasistatic_step)
-
-
-def solve_dynamic(
-    z1,
-    stiffness,
-    force,
-    zeta_step: float,
-    kernel,
-    sample_rate: float,
-    acceleration: float,
-    settings: SolverSettings,
-    threads: int = 1,
-    tail=None,
-) -> ContactResult:
-    """Dynamic indentation d(t) = a t^2 / 2 with the time-domain kernel (seed Eq. 3-4).
-
-    Parameters
-    ----------
-    z1 : array_like
-        Road matching heights z1[ex, ey] [m].
-    stiffness, force : array_like
-        Spring tables k [N/m] and F [N] on zeta_j = j * zeta_step.
-    zeta_step : float
-        Spring table step [m].
-    kernel : array_like
-        Time-domain Green's function table g[dx, dy, lag] [m/N] sampled at ``sample_rate``.
-    sample_rate : float
-        fs [Hz]; t_n = n / fs.
-    acceleration : float
-        Indentation acceleration a [m/s^2].
-    settings : SolverSettings
-        Tolerance, iteration limit and d_max.
-    threads : int
-        numba threads for the history sum.
-    tail : tyreroad.memory.TailModel, optional
-        The kernel beyond its kept lags, for runs longer than them (slow accelerations).
-
-    Returns
-    -------
-    ContactResult
-        From t = 0 to the first step with d >= settings.d_max.
-    """
-    time, d = dynamic_indentation(sample_rate, acceleration, settings.d_max)
+    time, d = constant_acceleration_path(sample_rate, acceleration, settings.d_max)
     logger.info("dynamic run: a = %g m/s^2, fs = %g Hz, %d steps", acceleration, sample_rate, d.size)
-    return solve_path(z1, stiffness, force, zeta_step, kernel, d, settings, time=time, threads=threads, tail=tail)
+    layer = LayerKernel.dynamic(kernel, sample_rate, tail)
+    return solve_path(z1, stiffness, force, zeta_step, layer, d, settings, time=time, threads=threads)
 
 
-def solve_quasistatic(
-    z1,
-    stiffness,
-    force,
-    zeta_step: float,
-    kernel_static,
-    settings: SolverSettings,
-    indentation=None,
-) -> ContactResult:
-    """Quasi-static indentation with the static kernel (the solver with g = [g_static]).
+def solve_quasistatic(z1, stiffness, force, zeta_step: float, kernel_static, settings: SolverSettings,
+                      indentation=None) -> ContactResult:
+    """:func:`solve_path` on the static kernel g_static[dx, dy] [m/N] given as an array.
 
-    Parameters
-    ----------
-    z1 : array_like
-        Road matching heights z1[ex, ey] [m].
-    stiffness, force : array_like
-        Spring tables k [N/m] and F [N] on zeta_j = j * zeta_step.
-    zeta_step : float
-        Spring table step [m].
-    kernel_static : array_like
-        g_static[dx, dy] [m/N].
-    settings : SolverSettings
-        Tolerance, iteration limit, d_max and the indentation step.
-    indentation : array_like, optional
-        Indentations to solve at [m]; default the uniform grid of :func:`quasistatic_indentation`.
-
-    Returns
-    -------
-    ContactResult
-        With ``time = None``.
+    ``indentation`` [m] defaults to the uniform grid of ``settings.quasistatic_step`` up to
+    ``settings.d_max``; the result has ``time = None`` and the tangent dF/dd of every state.
     """
-    gs = np.asarray(kernel_static, dtype=float)
-    if gs.ndim != 2:
-        raise ValueError(f"kernel_static: expected g_static[dx, dy], got shape {gs.shape}")
-    d = quasistatic_indentation(settings) if indentation is None else indentation
+    d = uniform_indentation_grid(settings.d_max, settings.quasistatic_step) if indentation is None else indentation
     logger.info("quasi-static run: %d steps", np.size(d))
-    return solve_path(z1, stiffness, force, zeta_step, gs[:, :, None], d, settings)
+    return solve_path(z1, stiffness, force, zeta_step, LayerKernel.quasistatic(kernel_static), d, settings)
 
 
-def _stage_inputs(surface: xr.Dataset, springs: xr.Dataset, greens: xr.Dataset, mode: str):
-    """Road heights z1[ex, ey] and the spring tables of the stage datasets, checked against each other."""
+def _stage_run(surface: xr.Dataset, springs: xr.Dataset, greens: xr.Dataset, material, mode: str, make_loading,
+               settings: SolverSettings, threads: int) -> ContactResult:
+    """One run from the stage datasets; ``make_loading(z1, kernel)`` gives its loading."""
     if mode not in MODES:
         raise ValueError(f"mode: expected one of {MODES}, got {mode!r}")
+    kernel = LayerKernel.from_greens(greens, mode, material)
+    kernel.check_element_size(surface.attrs.get("element_size"))
     z1 = surface["z1"].transpose("ex", "ey").values
     table = SpringTable.from_dataset(springs)
-    c_surface, c_greens = surface.attrs.get("element_size"), greens.attrs.get("element_size")
-    if c_surface is not None and c_greens is not None and not math.isclose(float(c_surface), float(c_greens), rel_tol=1e-9):
-        raise ValueError(f"element_size differs: surface {c_surface} m, greens {c_greens} m")
-    return z1, table
-
-
-def _backing(result: ContactResult, greens: xr.Dataset, material) -> np.ndarray:
-    """Backing force of a dynamic run at the greens file's sample rate."""
-    n_fft = int(float(greens.attrs.get("n_fft", 4096)))
-    return backing_force(result.force, material, float(greens.attrs["sample_rate"]), max(n_fft, 4096))
+    loading = make_loading(z1, kernel)
+    springs_table = SpringTable.checked(table.stiffness, table.force, table.zeta_step, z1.size)
+    result = run_loading_path(loading, springs_table, kernel, settings, threads)
+    return dataclasses.replace(result, backing_force=kernel.backing_force(result.force))
 
 
 def solve_loading(
@@ -591,17 +446,12 @@ def solve_loading(
     -------
     ContactResult
     """
-    z1, table = _stage_inputs(surface, springs, greens, mode)
-    loading = preset.loading(z1, mode, float(greens.attrs["sample_rate"]), settings.quasistatic_step)
-    springs_table = SpringTable.checked(table.stiffness, table.force, table.zeta_step, z1.size)
-    logger.info("%s run of loading %s (%s): %d steps", mode, preset.name, preset.kind, loading.n_steps)
-    if mode == "dynamic":
-        kernel = greens["g"].transpose("dx", "dy", "lag").values
-        result = run_loading_path(loading, springs_table, kernel, settings, threads, TailModel.from_greens(greens))
-        return dataclasses.replace(result, backing_force=_backing(result, greens, material))
-    kernel = greens["g_static"].transpose("dx", "dy").values[:, :, None]
-    result = run_loading_path(loading, springs_table, kernel, settings, threads, None)
-    return dataclasses.replace(result, backing_force=result.force.copy())
+    def make_loading(z1, kernel):
+        loading = preset.loading(z1, mode, kernel.sample_rate, settings.quasistatic_step)
+        logger.info("%s run of loading %s (%s): %d steps", mode, preset.name, preset.kind, loading.n_steps)
+        return loading
+
+    return _stage_run(surface, springs, greens, material, mode, make_loading, settings, threads)
 
 
 def solve_run(
@@ -614,10 +464,11 @@ def solve_run(
     settings: SolverSettings,
     threads: int = 1,
 ) -> ContactResult:
-    """One contact run from the stage datasets (surface, springs, greens; docs/data_contracts.md).
+    """One run of the seed's study from the stage datasets (surface, springs, greens; docs/data_contracts.md).
 
-    Dynamic runs also get the backing force (:func:`tyreroad.layer.backing_force` with the greens file's
-    ``sample_rate`` and ``n_fft``); for quasi-static runs it equals the surface force.
+    Dynamic: d(t) = a t^2 / 2 at the greens file's sample rate up to ``settings.d_max``, with the
+    backing force (:func:`tyreroad.layer.backing_force`); quasi-static: the uniform indentation grid
+    of ``settings.quasistatic_step`` (acceleration 0), whose backing force is the surface force.
 
     Parameters
     ----------
@@ -638,22 +489,19 @@ def solve_run(
     -------
     ContactResult
     """
-    z1, table = _stage_inputs(surface, springs, greens, mode)
-    stiffness, force, step = table.stiffness, table.force, table.zeta_step
-    if mode == "dynamic":
-        fs = float(greens.attrs["sample_rate"])
-        kernel = greens["g"].transpose("dx", "dy", "lag").values
-        result = solve_dynamic(
-            z1, stiffness, force, step, kernel, fs, acceleration, settings, threads, tail=TailModel.from_greens(greens)
-        )
-        backing = _backing(result, greens, material)
-    else:
-        if acceleration != 0:
-            raise ValueError(f"acceleration: quasi-static runs use 0 m/s^2, got {acceleration!r}")
-        kernel = greens["g_static"].transpose("dx", "dy").values
-        result = solve_quasistatic(z1, stiffness, force, step, kernel, settings)
-        backing = result.force.copy()
-    return dataclasses.replace(result, backing_force=backing)
+    if mode == "quasistatic" and acceleration != 0:
+        raise ValueError(f"acceleration: quasi-static runs use 0 m/s^2, got {acceleration!r}")
+
+    def make_loading(z1, kernel):
+        if kernel.static:
+            d, time = uniform_indentation_grid(settings.d_max, settings.quasistatic_step), None
+            logger.info("quasi-static run: %d steps", d.size)
+        else:
+            time, d = constant_acceleration_path(kernel.sample_rate, acceleration, settings.d_max)
+            logger.info("dynamic run: a = %g m/s^2, fs = %g Hz, %d steps", acceleration, kernel.sample_rate, d.size)
+        return IndentationPath(z1, d, time)
+
+    return _stage_run(surface, springs, greens, material, mode, make_loading, settings, threads)
 
 
 # --------------------------------------------------------------------------------------------

@@ -24,12 +24,12 @@ from __future__ import annotations
 
 from typing import Protocol, Sequence, runtime_checkable
 
-import numba
 import numpy as np
 from numba import njit, prange
 
 from . import checks
 from .convolution import OffsetConvolution, check_offset_kernel
+from .influence import offset_matrix
 
 __all__ = ["History", "DenseHistory", "FFTHistory", "TailHistory", "HistorySum"]
 
@@ -252,7 +252,6 @@ class FFTHistory:
         n_terms = min(n, self._depth)
         if n_terms == 0:
             return np.zeros(conv.shape[0] * conv.shape[1])
-        numba.set_num_threads(min(conv.workers, numba.config.NUMBA_NUM_THREADS))
         args = (self._ring_re, self._ring_im, self._newest, n_terms, self._out_re, self._out_im)
         g_re, g_im = conv.lag_spectra
         if conv.symmetric:
@@ -318,8 +317,6 @@ class TailHistory:
             self._conv = OffsetConvolution(r, self.shape, workers=workers)
             self._spatial = lambda u: self._conv.apply_lag(u, 0).ravel()
         elif method == "dense":
-            from .newton import offset_matrix
-
             self._matrix = offset_matrix(r[:, :, 0])
             self._spatial = lambda u: self._matrix @ u
         else:

@@ -66,6 +66,7 @@ import numpy as np
 from scipy.optimize import nnls
 
 from . import checks
+from .history import TailHistory
 
 logger = logging.getLogger(__name__)
 
@@ -120,15 +121,26 @@ class RetardationSpectrum:
         w = np.asarray(omega, dtype=float)
         return self.glassy_compliance + np.sum(self.compliances / (1.0 + 1j * w[..., None] * self.times), axis=-1)
 
+    def term_increments(self, lags, dt: float) -> np.ndarray:
+        """J_k [exp(-t_{l-1/2} / tau_k) - exp(-t_{l+1/2} / tau_k)] per lag l and term k [1/Pa].
+
+        The creep of retardation term k over sample l >= 1, shape (n_lags, n_terms): the one
+        formula behind :meth:`creep_increments`, :func:`wrapped_creep` and
+        :meth:`TailModel.from_spectrum`. At l <= 0 it is the formal continuation (the folding of
+        :func:`wrapped_creep` evaluates it at l + p n_fft); :meth:`creep_increments` gives lag 0
+        its half sample.
+        """
+        lag = np.asarray(lags, dtype=float)
+        return self.compliances * np.exp(-(lag[:, None] - 0.5) * dt / self.times) * -np.expm1(-dt / self.times)
+
     def creep_increments(self, start: int, stop: int, sample_rate: float) -> np.ndarray:
-        """J(t_{l+1/2}) - J(t_{l-1/2}) for l = start ... stop - 1, t_l = l / fs [1/Pa]."""
+        """J(t_{l+1/2}) - J(t_{l-1/2}) for l = start ... stop - 1, t_l = l / fs [1/Pa] (J(t < 0) = 0)."""
         dt = 1.0 / sample_rate
-        lag = np.arange(start, stop)
-        decay = np.exp(-np.maximum(lag - 0.5, 0.0)[:, None] * dt / self.times)
-        step = -np.expm1(-np.where(lag[:, None] == 0, 0.5, 1.0) * dt / self.times)
-        out = decay * step @ self.compliances
+        first = max(start, 1)
+        out = np.zeros(stop - start)
+        out[first - start:] = self.term_increments(np.arange(first, stop), dt).sum(axis=1)
         if start == 0:
-            out[0] += self.glassy_compliance
+            out[0] = self.glassy_compliance + float(np.sum(self.compliances * -np.expm1(-0.5 * dt / self.times)))
         return out
 
 
@@ -208,15 +220,9 @@ def wrapped_creep(spectrum: RetardationSpectrum, n_fft: int, n_lags: int, sample
         Shape (n_lags,) [1].
     """
     dt = 1.0 / sample_rate
-    lag = np.arange(first, first + n_lags)
+    # lag l + p N for p >= 1: the increment at l times ratio^p, a geometric series
     ratio = np.exp(-n_fft * dt / spectrum.times)
-    per_term = (
-        spectrum.compliances
-        * np.exp(-(lag[:, None] - 0.5) * dt / spectrum.times)
-        * -np.expm1(-dt / spectrum.times)
-        * ratio
-        / -np.expm1(-n_fft * dt / spectrum.times)
-    )
+    per_term = spectrum.term_increments(np.arange(first, first + n_lags), dt) * ratio / -np.expm1(-n_fft * dt / spectrum.times)
     return per_term.sum(axis=1) / spectrum.relaxed_compliance
 
 
@@ -250,6 +256,7 @@ class TailModel:
         total (retardation far faster than the kept lags) are dropped."""
         dt = 1.0 / sample_rate
         times = spectrum.times
+        # the creep still to come at t_{L - 1/2} per term (the sum of term_increments over l >= L)
         start = np.exp(-(n_lags - 0.5) * dt / times) * spectrum.compliances
         total = start.sum()
         if not total > 0:
@@ -258,22 +265,30 @@ class TailModel:
         keep = weights > cutoff * weights.sum()
         return cls(np.asarray(residual_compliance, dtype=float), weights[keep], np.exp(-dt / times[keep]), int(n_lags))
 
-    @classmethod
-    def from_greens(cls, greens) -> "TailModel | None":
-        """The tail stored in a greens dataset (``tail_compliance`` and the retardation spectrum), or
-        None for a file written without one."""
-        if "tail_compliance" not in greens:
-            return None
-        spectrum = RetardationSpectrum(
-            float(greens.attrs["glassy_compliance"]),
-            np.asarray(greens["retardation_compliance"].values, dtype=float),
-            np.asarray(greens["retardation_time"].values, dtype=float),
-            float(greens.attrs["creep_fit_error"]),
-        )
-        r = greens["tail_compliance"].transpose("dx", "dy").values
-        return cls.from_spectrum(r, spectrum, float(greens.attrs["sample_rate"]), int(greens.sizes["lag"]))
-
     def sequence(self, stop: int) -> np.ndarray:
         """c[l] for l = L ... stop - 1 [1] (for tests and plots)."""
         steps = np.arange(self.delay, stop) - self.delay
         return (self.decays[None, :] ** steps[:, None]) @ self.weights
+
+    # the memory-model protocol of tyreroad.kernel
+    def history(self, shape, method: str, workers: int = 1):
+        """The recursive tail filter as a history term (:class:`tyreroad.history.TailHistory`)."""
+        return TailHistory(self, shape, method, workers)
+
+    def frequency_response(self, frequencies, sample_rate: float) -> np.ndarray:
+        """The tail's part of the kernel's transfer function, sum_{l >= L} g[dx, dy, l] exp(-i omega l / fs) [m/N].
+
+        Per term a geometric series: R weight_k exp(-i omega L dt) / (1 - decay_k exp(-i omega dt)).
+
+        Returns
+        -------
+        numpy.ndarray
+            Complex offset tables, shape (n_f,) + R.shape.
+        """
+        z = np.exp(-2j * np.pi * np.asarray(frequencies, dtype=float) / float(sample_rate))
+        c = (z**self.delay) * np.sum(self.weights / (1.0 - self.decays * z[:, None]), axis=1)
+        return c[:, None, None] * self.residual_compliance[None, :, :]
+
+    def describe(self) -> str:
+        """What the log says of this memory."""
+        return f"creep tail from lag {self.delay}, {self.weights.size} retardation terms"

@@ -55,6 +55,8 @@ from .convolution import (
     gmres,
     pivoted_solve,
 )
+from .convolution import _norm
+from .influence import OffsetInfluence, Tangent, contact_set_stiffness
 from .springs import SpringTable
 
 logger = logging.getLogger(__name__)
@@ -127,6 +129,9 @@ class Substrate(Protocol):
     def correction(self, stiffness: np.ndarray, residual: np.ndarray, polish: bool) -> tuple[np.ndarray, int]:
         ...  # pragma: no cover - protocol
 
+    def tangent(self, stiffness: np.ndarray) -> Tangent:  # pragma: no cover - protocol
+        ...
+
 
 # --------------------------------------------------------------------------------------------
 # The Newton driver
@@ -176,7 +181,7 @@ def _unknown_step(delta, x, scale):
 
 
 def solve_step(b, zeta0, springs: SpringTable, substrate: Substrate, tolerance: float, max_iterations: int,
-               shift=None) -> StepResult:
+               shift=None, predictor: Tangent | None = None) -> StepResult:
     """Solve R(zeta) = zeta - b + G_0 F(zeta) = 0 by Newton's method from ``zeta0``.
 
     Each iteration takes the substrate's correction delta and halves the step until max|R|
@@ -213,10 +218,12 @@ def solve_step(b, zeta0, springs: SpringTable, substrate: Substrate, tolerance: 
         Newton iterations allowed.
     shift : numpy.ndarray, optional
         Warm start from ``zeta0`` moved by the change of b since that solution [m], shape (M,):
-        zeta0 + shift, or with a scaled unknown x(zeta0) + shift; where the substrate predicts
-        the step (``substrate.predict(shift, k(zeta0))`` returns a compression step, e.g. the
-        quasi-static tangent of :class:`FFTSubstrate`), zeta0 moved by that prediction instead.
-        None: start at ``zeta0``.
+        zeta0 + shift, or with a scaled unknown x(zeta0) + shift; where ``predictor`` predicts
+        the step (``predictor.predict(shift, k(zeta0))`` returns a compression step), zeta0 moved
+        by that prediction instead. None: start at ``zeta0``.
+    predictor : tyreroad.influence.Tangent, optional
+        The tangent of the state ``zeta0`` (the previous quasi-static state, as the march passes
+        it on): its dzeta/dd predicts a uniform shift exactly while the contact set holds.
 
     Returns
     -------
@@ -233,10 +240,10 @@ def solve_step(b, zeta0, springs: SpringTable, substrate: Substrate, tolerance: 
     f_try, k_try = np.empty(n_elem), np.empty(n_elem)
     scale = _kink_scale(springs, substrate, n_elem)
     predicted = None
-    if shift is not None and hasattr(substrate, "predict"):
-        # the tangent of the start state, where the substrate kept it (quasi-static FFT runs)
+    if shift is not None and predictor is not None and predictor.direction is not None:
+        # the tangent of the start state (quasi-static runs whose solver keeps dzeta/dd)
         springs.evaluate_into(zeta0, f, k)
-        predicted = substrate.predict(shift, k)
+        predicted = predictor.predict(shift, k)
     if shift is None:
         zeta = zeta0.copy()
         x = _to_unknown(zeta, scale)
@@ -323,21 +330,6 @@ def _jacobian_block_solve(g0, active, ka, rhs):  # pragma: no cover - numba
     return x[:, 0], ok
 
 
-def offset_matrix(kernel_lag: np.ndarray) -> np.ndarray:
-    """Dense M x M influence matrix G[e, m] = g[e - m] of one lag of an offset table [m/N].
-
-    Parameters
-    ----------
-    kernel_lag : numpy.ndarray
-        g[dx, dy] for offsets -(nx-1) ... nx-1, -(ny-1) ... ny-1, shape (2 nx - 1, 2 ny - 1).
-    """
-    nx, ny = (kernel_lag.shape[0] + 1) // 2, (kernel_lag.shape[1] + 1) // 2
-    ex, ey = np.divmod(np.arange(nx * ny), ny)
-    ix = ex[:, None] - ex[None, :] + nx - 1
-    iy = ey[:, None] - ey[None, :] + ny - 1
-    return np.ascontiguousarray(kernel_lag[ix, iy])
-
-
 class DenseSubstrate:
     """G_0 as a dense M x M matrix; Newton corrections by a direct solve of the loaded block.
 
@@ -347,13 +339,17 @@ class DenseSubstrate:
 
     Parameters
     ----------
-    kernel_lag0 : array_like
-        g[dx, dy, 0] [m/N], offsets -(nx-1) ... nx-1 along each axis.
+    influence : OffsetInfluence or array_like
+        G_0: the operator, or its table g[dx, dy, 0] [m/N] with offsets -(nx-1) ... nx-1 along
+        each axis (the table's shape gives the patch).
     """
 
-    def __init__(self, kernel_lag0):
-        g = checks.finite_array("kernel_lag0", kernel_lag0, ndim=2)
-        self.g0 = offset_matrix(g)
+    def __init__(self, influence):
+        if not isinstance(influence, OffsetInfluence):
+            g = checks.finite_array("kernel_lag0", influence, ndim=2)
+            influence = OffsetInfluence(g, ((g.shape[0] + 1) // 2, (g.shape[1] + 1) // 2))
+        self.influence = influence
+        self.g0 = influence.matrix()
 
     def instant(self, force: np.ndarray) -> np.ndarray:
         """G_0 F [m] over the loaded elements only."""
@@ -376,21 +372,15 @@ class DenseSubstrate:
         delta[active] = delta_a
         return delta, 0
 
+    def tangent(self, stiffness: np.ndarray) -> Tangent:
+        """dF/dd of a solved quasi-static state by a dense solve over its contact set (no predictor)."""
+        k = np.asarray(stiffness, dtype=float).ravel()
+        return Tangent(float(contact_set_stiffness(self.g0, k)), k.copy())
+
 
 # --------------------------------------------------------------------------------------------
 # FFT substrate: matrix-free Newton-Krylov
 # --------------------------------------------------------------------------------------------
-def _norm(x: np.ndarray) -> float:
-    """Euclidean norm without BLAS (multi-threaded BLAS-1 calls stalled on a busy machine)."""
-    x = x.ravel()
-    return math.sqrt(float(np.einsum("i,i->", x, x)))
-
-
-def _dot(x: np.ndarray, y: np.ndarray) -> float:
-    """x . y without BLAS (see :func:`_norm`)."""
-    return float(np.einsum("i,i->", x, y))
-
-
 class FFTSubstrate:
     """G_0 applied by FFT convolution; corrections by preconditioned conjugate gradients (matrix-free).
 
@@ -428,12 +418,14 @@ class FFTSubstrate:
     indentations: 290 / 261 / 248 / 243 CG products for b = 2 / 3 / 4 / 5); the iteration count is
     set by the layer's own conditioning, not by the local coupling.
 
-    Quasi-static tangent and predictor. :meth:`tangent_stiffness` solves the same system with
-    the right-hand side 1 (dR/dd = -1 for a flat tread surface): v = J^-1 1 = dzeta/dd and
-    K = 1^T k v = 1^T [G_0|C + diag(1/k)]^-1 1. v is kept, and :meth:`predict` returns
-    (d_new - d_old) v as the first step of the next indentation when the loading moves every
-    free compression by the same amount: the exact linear prediction for an unchanged contact
-    set (Newton then corrects the contact-set changes only).
+    Quasi-static tangent and predictor. :meth:`tangent` solves the same system with the
+    right-hand side 1 (dR/dd = -1 for a flat tread surface): v = J^-1 1 = dzeta/dd and
+    K = 1^T k v = 1^T [G_0|C + diag(1/k)]^-1 1. The returned :class:`tyreroad.influence.Tangent`
+    carries v, and its ``predict`` gives (d_new - d_old) v as the first step of the next
+    indentation when the loading moves every free compression by the same amount: the exact
+    linear prediction for an unchanged contact set (Newton then corrects the contact-set changes
+    only). The march hands that tangent to the next step (:func:`solve_step`'s ``predictor``); the
+    substrate keeps no state of it.
 
     Why the forcing is tight: with stiff springs (hard contact, k g_00 >> 1) the compressions of
     loaded springs are tiny (F / k) while the residual is not, and a spring on the verge of contact
@@ -468,8 +460,10 @@ class FFTSubstrate:
         GMRES restart length and limit on matrix-vector products per correction (both methods).
     refresh_after : int
         See above (0: refactorise at every iteration).
+    influence : tyreroad.influence.OffsetInfluence
+        G_0 as an operator (lag 0 of ``conv``).
     tangent_products : int
-        Krylov products of all :meth:`tangent_stiffness` calls.
+        Krylov products of all :meth:`tangent` calls.
     """
 
     #: Relative residual ||1 - J v||_2 / ||1_C||_2 of the tangent solve; K's error is of the order of
@@ -491,6 +485,7 @@ class FFTSubstrate:
         if not isinstance(conv, OffsetConvolution):
             raise TypeError(f"conv: expected OffsetConvolution, got {type(conv).__name__}")
         self.conv = conv
+        self.influence = OffsetInfluence.from_convolution(conv)
         self.tolerance = checks.real("tolerance", tolerance, positive=True)
         if not 0.0 < eta_max < 1.0:
             raise ValueError(f"eta_max: expected 0 < eta_max < 1, got {eta_max!r}")
@@ -509,7 +504,6 @@ class FFTSubstrate:
         nx, ny = conv.shape
         self.self_compliance = float(conv.lag0[nx - 1, ny - 1])
         self._pre_k = None  # the k the preconditioner was factorised for (CG path)
-        self._tangent = None  # (k, v = dzeta/dd) of the last tangent solve
         self._instant_cache = []  # [(F, G0 F)] of the last two distinct products
         self._fallback_logged = False
         self.tangent_products = 0
@@ -605,8 +599,12 @@ class FFTSubstrate:
             self._r2_prev = r2
         return delta, products
 
-    def tangent_stiffness(self, stiffness) -> float:
-        """K = dF/dd = 1^T [G_0|C + diag(1/k)]^-1 1 [N/m] of a solved quasi-static state.
+    def tangent(self, stiffness) -> Tangent:
+        """K = dF/dd = 1^T [G_0|C + diag(1/k)]^-1 1 [N/m] of a solved quasi-static state, with dzeta/dd.
+
+        An even lag-0 table with k >= 0 is solved by the correction's preconditioned CG, which
+        also gives v = dzeta/dd (the predictor); any other table by GMRES on J v = 1 (the
+        correction's fallback solver), without a predictor.
 
         Parameters
         ----------
@@ -615,8 +613,7 @@ class FFTSubstrate:
 
         Returns
         -------
-        float
-            K [N/m]; v = dzeta/dd is kept for :meth:`predict`.
+        tyreroad.influence.Tangent
 
         Raises
         ------
@@ -626,9 +623,18 @@ class FFTSubstrate:
         """
         k = np.asarray(stiffness, dtype=float).ravel()
         n_c = int(np.count_nonzero(k > 0.0))
-        if not self.use_cg or float(np.min(k)) < 0.0:
-            raise RuntimeError("tangent_stiffness needs an even lag-0 table and k >= 0 (the CG path)")
         atol = self.TANGENT_TOLERANCE * math.sqrt(max(n_c, 1))
+        if not self.use_cg or float(np.min(k)) < 0.0:
+            # J v = 1 on the loaded set (unit columns elsewhere: v = 1 there, weighted by k = 0)
+            self.preconditioner.update(k.reshape(self.conv.shape))
+            self._gmres_products = None
+            v, products, linear = gmres(self._matvec(k), self._psolve, np.ones(k.size), atol, self.krylov_restart,
+                                        self.krylov_max)
+            if linear > atol:
+                raise RuntimeError(f"tangent stiffness: GMRES stopped at relative residual "
+                                   f"{linear / math.sqrt(k.size):.2e} > {self.TANGENT_TOLERANCE:.0e}")
+            self.tangent_products += products
+            return Tangent(float(np.sum(k * v)), k.copy())
         solved = self._cg(k, np.ones(k.size), atol)
         if solved is None or solved[3] > atol:
             reached = float("nan") if solved is None else solved[3] / math.sqrt(n_c)
@@ -638,21 +644,4 @@ class FFTSubstrate:
             )
         v, u, products, _ = solved
         self.tangent_products += products
-        self._tangent = (k.copy(), v)
-        return float(np.sum(u))
-
-    def predict(self, shift: np.ndarray, stiffness: np.ndarray):
-        """First compression step c v of a step whose free compression moved by shift = c 1, or None.
-
-        ``stiffness`` is k at the start value; the prediction needs the tangent v = dzeta/dd of
-        that very state (:meth:`tangent_stiffness`) and a uniform shift (to 1e-9 of it).
-        """
-        if self._tangent is None:
-            return None
-        k_t, v = self._tangent
-        c = float(np.mean(shift))
-        if c == 0.0 or float(np.max(np.abs(shift - c))) > 1e-9 * abs(c):
-            return None
-        if not np.array_equal(np.asarray(stiffness, dtype=float).ravel(), k_t):
-            return None
-        return c * v
+        return Tangent(float(np.sum(u)), k.copy(), v)

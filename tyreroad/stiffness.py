@@ -8,9 +8,9 @@ by 1^T K dzeta, so over the contact set C (the elements with k_e > 0)
 
     K = 1^T [G_C + diag(1/k_e)]^-1 1.
 
-* **Quasi-static tangent** (:class:`TangentStiffness`): G = G_0 = g_static, the state of a
-  quasi-static run. dF/dd of the quasi-static curve, exact between contact-set changes, so that
-  quasi-static runs may take coarse indentation steps while K(d) stays exact.
+* **Quasi-static tangent** (the substrates' ``tangent``, :mod:`tyreroad.newton`): G = G_0 = g_static,
+  the state of a quasi-static run. dF/dd of the quasi-static curve, exact between contact-set
+  changes, so that quasi-static runs may take coarse indentation steps while K(d) stays exact.
 * **Dynamic contact stiffness** (:func:`stiffness_spectrum`): G = G_C(f), the element FRF matrix
   g(e - m, f) of the layer (:func:`tyreroad.greens.element_frf`, the same layer machinery as the
   Green's functions, not the truncated time kernel), about the **relaxed preload state**: the
@@ -24,14 +24,16 @@ by 1^T K dzeta, so over the contact set C (the elements with k_e > 0)
 
 Both are solved in the symmetric form A y = s, A = I + S G S, S = diag(sqrt(k_e)), K = s^T y
 (unconjugated): A has eigenvalues >= 1 in the static case and stays well conditioned when an
-element has just touched (k_e -> 0), where the form with 1/k_e would not. Two solvers:
+element has just touched (k_e -> 0), where the form with 1/k_e would not. Two solvers, over the one
+influence operator of the package (:class:`tyreroad.influence.OffsetInfluence`):
 
-* dense (:func:`contact_set_stiffness`): LU of A over the contact set, for patches up to the
-  contact solver's FFT threshold (:data:`tyreroad.contact.FFT_THRESHOLD` elements);
-* matrix-free (:func:`contact_set_stiffness_krylov`): conjugate-orthogonal conjugate gradients
-  (COCG; plain CG when G is real) on the Jacobi-scaled A, with G v by FFT convolution of the offset
-  table on the padded grid of :func:`tyreroad.convolution.padded_shape` (exact linear convolution).
-  A is complex symmetric (G_em = g(e - m) = g(m - e)), which is what COCG needs.
+* dense (:func:`tyreroad.influence.contact_set_solve`): LU of A over the contact set, for patches
+  up to the contact solver's FFT threshold (:data:`tyreroad.solver.FFT_THRESHOLD` elements);
+* matrix-free (:func:`tyreroad.influence.contact_set_stiffness_krylov`): conjugate-orthogonal
+  conjugate gradients (COCG; plain CG when G is real) on the Jacobi-scaled A, with G v by FFT
+  convolution of the offset table on the padded grid of :func:`tyreroad.convolution.padded_shape`
+  (exact linear convolution). A is complex symmetric (G_em = g(e - m) = g(m - e)), which is what
+  COCG needs.
 
 Choices (where the specification left one)
 ------------------------------------------
@@ -58,28 +60,26 @@ import logging
 import math
 import time
 from dataclasses import dataclass
-from typing import Any, Callable, Mapping, Sequence
+from typing import Any, Mapping, Sequence
 
 import numpy as np
-import scipy.fft
-import scipy.linalg
 import xarray as xr
 
 from . import checks
-from .convolution import check_offset_kernel, padded_shape
+from .contact import solve_path
+from .influence import OffsetInfluence, contact_set_solve, contact_set_stiffness_krylov
+from .kernel import LayerKernel
+from .loading import uniform_indentation_grid
+from .solver import SolverSettings
+from .springs import SpringTable
 
 logger = logging.getLogger(__name__)
 
 __all__ = [
     "SpectrumSettings",
     "frequency_grid",
-    "contact_set_stiffness",
-    "contact_set_stiffness_krylov",
-    "OffsetOperator",
-    "TangentStiffness",
     "PreloadStates",
     "preload_states",
-    "element_frf_table",
     "stiffness_spectrum",
     "spectrum_from_datasets",
     "first_harmonic",
@@ -213,246 +213,6 @@ def frequency_grid(f_min: float, f_max: float, n: int, extra: Sequence[float] = 
 
 
 # --------------------------------------------------------------------------------------------
-# linear algebra over a contact set
-# --------------------------------------------------------------------------------------------
-def contact_set_stiffness(g_matrix, stiffness) -> complex | float:
-    """K = 1^T [G_C + diag(1/k_e)]^-1 1 by a dense solve over the contact set C = {e : k_e > 0}.
-
-    Parameters
-    ----------
-    g_matrix : array_like
-        Influence matrix G[e, m] of the whole patch (or of the elements given), real or complex,
-        shape (M, M) [m/N].
-    stiffness : array_like
-        Tangent spring stiffnesses k_e >= 0 [N/m], shape (M,).
-
-    Returns
-    -------
-    float or complex
-        K [N/m] (complex when G is); 0 when no element is loaded.
-    """
-    k = checks.nonnegative_array("stiffness", stiffness).ravel()
-    g = np.asarray(g_matrix)
-    if g.shape != (k.size, k.size):
-        raise ValueError(f"g_matrix: expected shape ({k.size}, {k.size}), got {g.shape}")
-    active = np.flatnonzero(k)
-    if active.size == 0:
-        return 0.0 * g.dtype.type(1)
-    return _dense_solve(g[np.ix_(active, active)], np.sqrt(k[active]))
-
-
-def _dense_solve(g_cc: np.ndarray, s: np.ndarray):
-    """s^T (I + S G S)^-1 s for the contact-set block G_CC and s = sqrt(k_C)."""
-    a = g_cc * s[:, None]
-    a *= s[None, :]
-    a[np.diag_indices_from(a)] += 1.0
-    if np.iscomplexobj(a):
-        y = np.linalg.solve(a, s.astype(a.dtype))
-    else:  # symmetric positive definite (eigenvalues >= 1 for a positive definite G)
-        y = scipy.linalg.solve(a, s, assume_a="pos", check_finite=False)
-    return s @ y
-
-
-def contact_set_stiffness_krylov(
-    apply_g: Callable[[np.ndarray], np.ndarray],
-    stiffness: np.ndarray,
-    g_self,
-    tolerance: float = 1e-12,
-    max_iterations: int = 3000,
-    start: np.ndarray | None = None,
-):
-    """K = 1^T [G_C + diag(1/k_e)]^-1 1, matrix-free, by Jacobi-scaled COCG (CG when G is real).
-
-    Solves A^ y^ = b^ with A^ = D^-1 + P G P, P = diag(sqrt(k_e / d_e)), D = diag(1 + k_e g_self)
-    (the Jacobi scaling of A = I + S G S), b^ = sqrt(k / d); K = b^T y^ (unconjugated).
-
-    Parameters
-    ----------
-    apply_g : callable
-        v -> G v for a field v of the patch shape (complex or real, the same shape back) [m/N x N].
-    stiffness : numpy.ndarray
-        k_e >= 0 on the patch [N/m] (0 outside the contact set).
-    g_self : float or complex
-        g(0, 0), the self-compliance [m/N] (the Jacobi scaling).
-    tolerance : float
-        Stop at ||b^ - A^ y^||_2 <= tolerance ||b^||_2.
-    max_iterations : int
-        Iterations (one G product each) allowed.
-    start : numpy.ndarray, optional
-        Initial y^ (e.g. the solution at a neighbouring frequency).
-
-    Returns
-    -------
-    value : float or complex
-        K [N/m].
-    iterations : int
-        G products used.
-    solution : numpy.ndarray
-        y^, to warm-start a neighbouring problem.
-
-    Raises
-    ------
-    RuntimeError
-        When the residual does not reach the tolerance in ``max_iterations`` iterations (or the
-        recurrence breaks down), naming the residual reached.
-    """
-    k = np.asarray(stiffness, dtype=float)
-    dtype = np.result_type(np.asarray(g_self).dtype, float)
-    if not np.any(k > 0):
-        return dtype.type(0.0), 0, np.zeros(k.shape, dtype=dtype)
-    d = 1.0 + k * g_self
-    p = np.sqrt(k / d).astype(dtype)
-    inv_d = (1.0 / d).astype(dtype)
-
-    def op(v):
-        return inv_d * v + p * apply_g(p * v)
-
-    b = p.copy()
-    x = np.zeros(k.shape, dtype=dtype) if start is None else np.array(start, dtype=dtype)
-    r = b - op(x) if start is not None else b.copy()
-    products = 1 if start is not None else 0
-    b_norm = float(np.linalg.norm(b))
-    target = tolerance * b_norm
-    r_norm = float(np.linalg.norm(r))
-    direction = r.copy()
-    rho = np.sum(r * r)
-    while r_norm > target:
-        if products >= max_iterations:
-            raise RuntimeError(
-                f"contact-set stiffness: Krylov solve stopped at relative residual {r_norm / b_norm:.2e} "
-                f"> {tolerance:.1e} after {products} iterations"
-            )
-        q = op(direction)
-        products += 1
-        pq = np.sum(direction * q)
-        if pq == 0 or rho == 0:
-            raise RuntimeError(f"contact-set stiffness: COCG breakdown at relative residual {r_norm / b_norm:.2e}")
-        alpha = rho / pq
-        x += alpha * direction
-        r -= alpha * q
-        r_norm = float(np.linalg.norm(r))
-        rho_new = np.sum(r * r)
-        direction *= rho_new / rho
-        direction += r
-        rho = rho_new
-    return np.sum(b * x), products, x
-
-
-class OffsetOperator:
-    """v -> G v for an offset table g[dx, dy] (real or complex) on an nx x ny patch, by FFT.
-
-    The table (offsets -(n-1) ... n-1, index dx + n - 1) sits on the padded periodic grid of
-    :func:`tyreroad.convolution.padded_shape`, where the circular convolution equals the linear
-    one on the patch (no periodic image enters).
-
-    Parameters
-    ----------
-    table : array_like
-        g[dx, dy] [m/N], shape (2 nx - 1, 2 ny - 1) (a larger centred table is cropped).
-    shape : tuple of int
-        (nx, ny).
-    workers : int
-        scipy.fft threads.
-    """
-
-    def __init__(self, table, shape, workers: int = 1):
-        nx, ny = (checks.integer(f"shape[{i}]", v) for i, v in enumerate(shape))
-        self.shape = (nx, ny)
-        self.workers = checks.integer("workers", workers)
-        self.padded = padded_shape(self.shape)
-        t = np.asarray(table)
-        self.complex = np.iscomplexobj(t)
-        if self.complex:
-            re = check_offset_kernel(t.real[:, :, None], nx, ny, "table")[:, :, 0]
-            im = check_offset_kernel(t.imag[:, :, None], nx, ny, "table")[:, :, 0]
-            t = re + 1j * im
-        else:
-            t = check_offset_kernel(t[:, :, None], nx, ny, "table")[:, :, 0]
-        self.g_self = t[nx - 1, ny - 1]
-        buf = np.zeros(self.padded, dtype=t.dtype)
-        buf[: 2 * nx - 1, : 2 * ny - 1] = t
-        buf = np.roll(buf, (-(nx - 1), -(ny - 1)), axis=(0, 1))
-        if self.complex:
-            self._spec = scipy.fft.fft2(buf, workers=self.workers)
-        else:
-            self._spec = scipy.fft.rfft2(buf, workers=self.workers)
-
-    def __call__(self, v: np.ndarray) -> np.ndarray:
-        """G v on the patch, v of shape (nx, ny)."""
-        nx, ny = self.shape
-        if self.complex or np.iscomplexobj(v):
-            if not self.complex:  # real kernel, complex field: two real convolutions
-                return self(v.real) + 1j * self(v.imag)
-            spec = scipy.fft.fft2(v, s=self.padded, workers=self.workers)
-            spec *= self._spec
-            return scipy.fft.ifft2(spec, workers=self.workers)[:nx, :ny]
-        spec = scipy.fft.rfft2(v, s=self.padded, workers=self.workers)
-        spec *= self._spec
-        return scipy.fft.irfft2(spec, s=self.padded, workers=self.workers)[:nx, :ny]
-
-
-def _offset_matrix_index(shape) -> tuple[np.ndarray, np.ndarray]:
-    """Index arrays (ix, iy) with G[e, m] = table[ix[e, m], iy[e, m]] for a (2 nx - 1, 2 ny - 1) table."""
-    nx, ny = shape
-    ex, ey = np.divmod(np.arange(nx * ny), ny)
-    return ex[:, None] - ex[None, :] + nx - 1, ey[:, None] - ey[None, :] + ny - 1
-
-
-class TangentStiffness:
-    """dF/dd of solved quasi-static states: K = 1^T [G0|C + diag(1/k)]^-1 1 (the f -> 0 case of K*).
-
-    Called with the tangent spring stiffnesses k_e of a converged state, shape (M,) or (nx, ny),
-    it returns dF/dd [N/m] for a flat tread surface (every free compression grows with d).
-
-    Parameters
-    ----------
-    kernel_lag0 : array_like
-        g[dx, dy] of the instantaneous (quasi-static) kernel [m/N], offsets -(n-1) ... n-1 (a
-        larger centred table is cropped).
-    shape : tuple of int
-        Patch (nx, ny).
-    method : {"dense", "fft"}
-        Dense solve over the contact set, or matrix-free CG with FFT products.
-    workers : int
-        FFT threads.
-    tolerance : float
-        Relative residual of the CG solve (``fft``).
-
-    Attributes
-    ----------
-    iterations : int
-        CG products of the last call (0 for dense).
-    """
-
-    def __init__(self, kernel_lag0, shape, method: str = "dense", workers: int = 1, tolerance: float = 1e-12):
-        if method not in ("dense", "fft"):
-            raise ValueError(f"method: expected 'dense' or 'fft', got {method!r}")
-        nx, ny = (checks.integer(f"shape[{i}]", v) for i, v in enumerate(shape))
-        g = check_offset_kernel(np.asarray(kernel_lag0, dtype=float)[:, :, None], nx, ny, "kernel_lag0")[:, :, 0]
-        self.shape = (nx, ny)
-        self.method = method
-        self.tolerance = checks.real("tolerance", tolerance, positive=True)
-        self.iterations = 0
-        self._start = None
-        if method == "dense":
-            ix, iy = _offset_matrix_index(self.shape)
-            self._g = np.ascontiguousarray(g[ix, iy])
-        else:
-            self._op = OffsetOperator(g, self.shape, workers)
-
-    def __call__(self, stiffness) -> float:
-        k = np.asarray(stiffness, dtype=float)
-        if self.method == "dense":
-            self.iterations = 0
-            return float(contact_set_stiffness(self._g, k.ravel()))
-        k = k.reshape(self.shape)
-        value, self.iterations, self._start = contact_set_stiffness_krylov(
-            self._op, k, self._op.g_self, self.tolerance, start=self._start
-        )
-        return float(value)
-
-
-# --------------------------------------------------------------------------------------------
 # the relaxed preload states
 # --------------------------------------------------------------------------------------------
 @dataclass(frozen=True)
@@ -483,7 +243,8 @@ class PreloadStates:
     contact_count: np.ndarray
 
 
-def preload_states(z1, springs, kernel_static, preloads, settings, threads: int = 1) -> PreloadStates:
+def preload_states(z1, springs, relaxed: LayerKernel, preloads, settings: SolverSettings,
+                   threads: int = 1) -> PreloadStates:
     """Solve the quasi-static contact up to each preload (the relaxed preload states).
 
     The indentation path is the uniform grid of ``settings.quasistatic_step`` up to the largest
@@ -496,11 +257,11 @@ def preload_states(z1, springs, kernel_static, preloads, settings, threads: int 
         Road matching heights z1[ex, ey] [m].
     springs : tyreroad.springs.SpringTable
         Spring tables, shape (nx, ny, n_zeta) or (M, n_zeta).
-    kernel_static : array_like
-        g_static[dx, dy] [m/N].
+    relaxed : tyreroad.kernel.LayerKernel
+        The static kernel of the relaxed layer (g_static).
     preloads : sequence of float
         d0 [m], increasing.
-    settings : tyreroad.contact.SolverSettings
+    settings : tyreroad.solver.SolverSettings
         Tolerance, iteration limit, indentation step and method.
     threads : int
         numba threads and FFT workers.
@@ -509,17 +270,13 @@ def preload_states(z1, springs, kernel_static, preloads, settings, threads: int 
     -------
     PreloadStates
     """
-    from .contact import solve_path
-    from .loading import uniform_indentation_grid
-
+    if not relaxed.static:
+        raise ValueError(f"{relaxed.name}: the relaxed preload state needs the static kernel, got a dynamic one")
     z1 = np.asarray(z1, dtype=float)
     pre = np.asarray(preloads, dtype=float)
     grid = uniform_indentation_grid(float(pre[-1]), settings.quasistatic_step)
     path = np.unique(np.concatenate([grid[grid < pre[-1]], pre]))
-    g = np.asarray(kernel_static, dtype=float)
-    if g.ndim != 2:
-        raise ValueError(f"kernel_static: expected g_static[dx, dy], got shape {g.shape}")
-    result = solve_path(z1, springs.stiffness, springs.force, springs.zeta_step, g[:, :, None], path, settings,
+    result = solve_path(z1, springs.stiffness, springs.force, springs.zeta_step, relaxed, path, settings,
                         threads=threads)
     steps = np.searchsorted(path, pre)
     zeta = result.compression[steps]
@@ -538,47 +295,15 @@ def preload_states(z1, springs, kernel_static, preloads, settings, threads: int 
 # --------------------------------------------------------------------------------------------
 # the spectrum
 # --------------------------------------------------------------------------------------------
-def element_frf_table(material, shape, element_size: float, frequencies) -> tuple[np.ndarray, np.ndarray]:
-    """Element FRF of the layer at the unique offsets of a patch, and the offset-table index.
-
-    Parameters
-    ----------
-    material : tyreroad.material.Material
-        The layer (modulus(omega), poisson, density, thickness).
-    shape : tuple of int
-        Patch (nx, ny).
-    element_size : float
-        c [m].
-    frequencies : array_like
-        f [Hz], >= 0 (f = 0 uses E(omega -> 0)).
-
-    Returns
-    -------
-    frf : numpy.ndarray
-        g at the unique offsets (:func:`tyreroad.greens.unique_offsets`), shape (n_f, n_unique) [m/N].
-    index : numpy.ndarray
-        index[i, j] of table offset (dx_i, dy_j) into the unique offsets, shape (2 nx - 1, 2 ny - 1).
-    """
-    from .greens import element_frf, offset_table_index, unique_offsets
-
-    c = checks.real("element_size", element_size, positive=True)
-    uniq = unique_offsets(shape)
-    _, _, index = offset_table_index(shape)
-    omega = 2 * np.pi * np.asarray(frequencies, dtype=float)
-    modulus = np.asarray(material.modulus(omega), dtype=complex)
-    frf = element_frf(uniq * c, c, omega, modulus, material.poisson, material.density, material.thickness)
-    return frf, index
-
-
 def stiffness_spectrum(
     z1,
     springs,
-    kernel_static,
+    relaxed: LayerKernel,
+    response,
     material,
-    element_size: float,
     sample_rate: float,
     spectrum: SpectrumSettings,
-    settings,
+    settings: SolverSettings,
     threads: int = 1,
     method: str | None = None,
 ) -> xr.Dataset:
@@ -590,17 +315,18 @@ def stiffness_spectrum(
         Road matching heights z1[ex, ey] [m].
     springs : tyreroad.springs.SpringTable
         Element spring tables.
-    kernel_static : array_like
-        g_static[dx, dy] [m/N] (the greens file's quasi-static kernel: the relaxed state).
+    relaxed : tyreroad.kernel.LayerKernel
+        The static kernel of the relaxed state (the greens file's g_static).
+    response : tyreroad.kernel.ElementFRF or tyreroad.kernel.LayerKernel
+        The layer's frequency response G(dx, dy, f) (``frequency_response(frequencies, shape)``):
+        the material's exact element FRF, or a kernel's own transfer function.
     material : tyreroad.material.Material
-        The tread layer (the element FRF).
-    element_size : float
-        c [m].
+        The tread material (its name and moduli are recorded; E_qs vs E(0) is checked).
     sample_rate : float
         fs of the study [Hz]; the grid ends at fs/2.
     spectrum : SpectrumSettings
         Preloads and frequencies.
-    settings : tyreroad.contact.SolverSettings
+    settings : tyreroad.solver.SolverSettings
         The contact solver settings (the preload solve; ``method`` picks dense or matrix-free).
     threads : int
         numba threads and FFT workers.
@@ -620,32 +346,28 @@ def stiffness_spectrum(
     if method not in ("dense", "fft"):
         raise ValueError(f"method: expected 'dense' or 'fft', got {method!r}")
     freq = spectrum.frequencies(sample_rate)
-    states = preload_states(z1, springs, kernel_static, spectrum.preloads, settings, threads)
+    states = preload_states(z1, springs, relaxed, spectrum.preloads, settings, threads)
     t_states = time.perf_counter() - t0
     # f = 0 first: the relaxed limit, E(omega -> 0)
-    frf, index = element_frf_table(material, shape, element_size, np.concatenate([[0.0], freq]))
+    tables = response.frequency_response(np.concatenate([[0.0], freq]), shape)
     t_frf = time.perf_counter() - t0 - t_states
     n_p, n_f = states.preload.size, freq.size + 1
     values = np.zeros((n_p, n_f), dtype=complex)
     iterations = np.zeros((n_p, n_f), dtype=np.int64)
     k_flat = states.spring_stiffness.reshape(n_p, -1)
     if method == "dense":
-        ix, iy = _offset_matrix_index(shape)
-        uidx = index[ix, iy]
         for p in range(n_p):
             active = np.flatnonzero(k_flat[p])
             if active.size == 0:
                 continue
             s = np.sqrt(k_flat[p, active])
-            block = uidx[np.ix_(active, active)]
             for j in range(n_f):
-                g_cc = frf[j][block]
-                values[p, j] = _dense_solve(g_cc.real if j == 0 else g_cc, s)
+                g_cc = OffsetInfluence(tables[j], shape).block(active)
+                values[p, j] = contact_set_solve(g_cc.real if j == 0 else g_cc, s)
     else:
         starts = [None] * n_p
         for j in range(n_f):
-            table = frf[j][index]
-            op = OffsetOperator(table.real if j == 0 else table, shape, threads)
+            op = OffsetInfluence(tables[j].real if j == 0 else tables[j], shape, threads)
             for p in range(n_p):
                 k = states.spring_stiffness[p]
                 start = starts[p]
@@ -653,7 +375,7 @@ def stiffness_spectrum(
                     start = start.astype(complex)
                 values[p, j], iterations[p, j], starts[p] = contact_set_stiffness_krylov(
                     op, k, op.g_self, spectrum.krylov_tolerance, spectrum.krylov_max_iterations, start)
-    relaxed = values[:, 0].real
+    k_relaxed = values[:, 0].real
     k_star = values[:, 1:]
     elapsed = time.perf_counter() - t0
     logger.info(
@@ -667,14 +389,15 @@ def stiffness_spectrum(
         logger.info(
             "d0 = %.3g mm: %d elements in contact, F = %.4g N, K_qs = %.5g N/m, K*(f->0)/K_qs - 1 = %.2e, "
             "K'(%.4g Hz) = %.5g N/m", states.preload[p] * 1e3, states.contact_count[p], states.force[p],
-            states.tangent_stiffness[p], relaxed[p] / states.tangent_stiffness[p] - 1, freq[0], k_star[p, 0].real,
+            states.tangent_stiffness[p], k_relaxed[p] / states.tangent_stiffness[p] - 1, freq[0], k_star[p, 0].real,
         )
     e0 = float(np.real(material.modulus(0.0)))
     e_qs = float(material.quasi_static_modulus)
     if not math.isclose(e0, e_qs, rel_tol=1e-9):
         logger.warning("quasi-static modulus %.6g Pa differs from E(omega -> 0) = %.6g Pa: K*(f -> 0) is not the "
                        "tangent of the relaxed state", e_qs, e0)
-    ds = _dataset(states, freq, k_star, relaxed, iterations[:, 1:], method, n_elem, material, element_size,
+    element_size = getattr(response, "element_size", None) or relaxed.element_size
+    ds = _dataset(states, freq, k_star, k_relaxed, iterations[:, 1:], method, n_elem, material, element_size,
                   sample_rate, e0, e_qs)
     ds.attrs["report_frequencies"] = np.asarray(spectrum.report_frequencies, dtype=float)
     ds.attrs["figure_preload"] = float(spectrum.figure_preload)
@@ -729,25 +452,21 @@ def _dataset(states, freq, k_star, relaxed, iterations, method, n_elem, material
 
 
 def spectrum_from_datasets(surface: xr.Dataset, springs: xr.Dataset, greens: xr.Dataset, material,
-                           spectrum: SpectrumSettings, settings, threads: int = 1,
+                           spectrum: SpectrumSettings, settings: SolverSettings, threads: int = 1,
                            method: str | None = None) -> xr.Dataset:
     """:func:`stiffness_spectrum` from the stage datasets (surface, springs, greens of one material).
 
-    The relaxed state uses the greens file's g_static (the kernel of the study's quasi-static runs);
+    The relaxed state uses the greens file's static kernel (that of the study's quasi-static runs);
     the element FRF is computed afresh at the analysis frequencies; fs is the greens file's.
     """
-    from .springs import SpringTable
-
+    relaxed = LayerKernel.from_greens(greens, "quasistatic", material)
+    if relaxed.element_size is None:
+        raise ValueError("greens dataset: no element_size attribute")
+    relaxed.check_element_size(surface.attrs.get("element_size"))
     z1 = surface["z1"].transpose("ex", "ey").values
     table = SpringTable.from_dataset(springs)
-    c_surface, c_greens = surface.attrs.get("element_size"), greens.attrs.get("element_size")
-    if c_greens is None:
-        raise ValueError("greens dataset: no element_size attribute")
-    if c_surface is not None and not math.isclose(float(c_surface), float(c_greens), rel_tol=1e-9):
-        raise ValueError(f"element_size differs: surface {c_surface} m, greens {c_greens} m")
-    g_static = greens["g_static"].transpose("dx", "dy").values
-    return stiffness_spectrum(z1, table, g_static, material, float(c_greens), float(greens.attrs["sample_rate"]),
-                              spectrum, settings, threads, method)
+    return stiffness_spectrum(z1, table, relaxed, relaxed.response, material, relaxed.sample_rate, spectrum,
+                              settings, threads, method)
 
 
 # --------------------------------------------------------------------------------------------

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..convolution import check_offset_kernel
-from ..newton import offset_matrix
+from ..influence import offset_matrix
 
 __all__ = ["lag_matrix", "dense_history_sum"]
 

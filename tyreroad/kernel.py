@@ -1,0 +1,332 @@
+r"""The layer kernel: what the contact solver knows of the tread layer, read once from a greens file.
+
+A :class:`LayerKernel` is the response of the layer surface to the element forces, in the form every
+solver piece needs it:
+
+* the **kept lags** g[dx, dy, lag] [m/N] of the discrete impulse response (one lag for a
+  quasi-static kernel), and whether the kernel is **static** (a sequence of static states) or
+  **dynamic** (sampled at ``sample_rate``) -- stated, never guessed from the table's shape;
+* its **memory model** beyond the kept lags (:class:`MemoryModel`; the tread's creep tail,
+  :class:`tyreroad.memory.TailModel`, is one), which builds its own history term;
+* the **collaborators** of the time march (:meth:`LayerKernel.collaborators`): the substrate, whose
+  G_0 (:class:`tyreroad.influence.OffsetInfluence`, dense or FFT) also gives the quasi-static tangent
+  and the next step's predictor, and the history of the kept lags plus the memory's;
+* its **frequency response** (:meth:`LayerKernel.frequency_response`), the complex offset tables
+  G(f) that the contact stiffness K*(f) solves over (the exact element FRF of the material when
+  the kernel knows it, else the transform of the kept lags and the memory);
+* the **backing force** of a run (the force at the rigid belt).
+
+:meth:`LayerKernel.from_greens` is the one reader of a greens dataset's kernel variables; nothing
+downstream opens them. A new kind of kernel (a flexible belt behind the tread, a tread block whose
+influence is not translation invariant, another causal construction) is a new memory model, or a
+subclass that overrides :meth:`LayerKernel.collaborators` and :meth:`LayerKernel.frequency_response`:
+the march, the Newton driver and the stiffness solvers stay as they are.
+"""
+
+from __future__ import annotations
+
+import functools
+import logging
+import math
+from dataclasses import dataclass, field
+from typing import Callable, Protocol, runtime_checkable
+
+import numpy as np
+import xarray as xr
+
+from . import checks
+from .convolution import OffsetConvolution, check_offset_kernel
+from .greens import element_frf, offset_table_index, unique_offsets
+from .history import DenseHistory, FFTHistory, History, HistorySum
+from .influence import OffsetInfluence
+from .layer import backing_force
+from .memory import RetardationSpectrum, TailModel
+from .newton import DenseSubstrate, FFTSubstrate, Substrate
+from .solver import SolverSettings
+
+logger = logging.getLogger(__name__)
+
+__all__ = ["MemoryModel", "ElementFRF", "LayerKernel", "KERNEL_MODES"]
+
+#: The kinds of kernel a greens file holds, by the run mode that uses them.
+KERNEL_MODES = ("dynamic", "quasistatic")
+
+
+@runtime_checkable
+class MemoryModel(Protocol):
+    """The kernel beyond its kept lags: lags ``delay``, ``delay + 1``, ...
+
+    ``delay``                                  the first lag it covers (= the kept lags L);
+    ``history(shape, method, workers)``        a :class:`tyreroad.history.History` that adds its
+                                               displacement to the kept lags' (``method`` is the
+                                               run's ``dense`` or ``fft`` path);
+    ``frequency_response(frequencies, fs)``    its part of the transfer function,
+                                               sum_{l >= L} g[dx, dy, l] exp(-i 2 pi f l / fs), as
+                                               complex offset tables (n_f, 2 nx - 1, 2 ny - 1) [m/N];
+    ``describe()``                             a short text for the log.
+    """
+
+    delay: int
+
+    def history(self, shape, method: str, workers: int = 1) -> History:  # pragma: no cover - protocol
+        ...
+
+    def frequency_response(self, frequencies, sample_rate: float) -> np.ndarray:  # pragma: no cover - protocol
+        ...
+
+    def describe(self) -> str:  # pragma: no cover - protocol
+        ...
+
+
+class ElementFRF:
+    """The exact element FRF of a material's layer, g(dx, dy, f) (:func:`tyreroad.greens.element_frf`).
+
+    What :meth:`LayerKernel.frequency_response` returns for a kernel read with its material, and
+    what the K*(f) solver takes as the layer's response (f = 0 uses E(omega -> 0)).
+
+    Parameters
+    ----------
+    material : tyreroad.material.Material
+        The layer (modulus(omega), poisson, density, thickness).
+    element_size : float
+        c [m].
+    """
+
+    def __init__(self, material, element_size: float):
+        self.material = material
+        self.element_size = checks.real("element_size", element_size, positive=True)
+
+    def frequency_response(self, frequencies, shape) -> np.ndarray:
+        """Complex offset tables g(dx, dy, f) [m/N], shape (n_f, 2 nx - 1, 2 ny - 1), at f [Hz]."""
+        c, mat = self.element_size, self.material
+        uniq = unique_offsets(shape)
+        _, _, index = offset_table_index(shape)
+        omega = 2 * np.pi * np.asarray(frequencies, dtype=float)
+        modulus = np.asarray(mat.modulus(omega), dtype=complex)
+        frf = element_frf(uniq * c, c, omega, modulus, mat.poisson, mat.density, mat.thickness)
+        return frf[:, index]
+
+
+@dataclass(frozen=True, eq=False)
+class LayerKernel:
+    """The layer's element response as the contact solver uses it (see the module docstring).
+
+    Parameters
+    ----------
+    lags : array_like
+        g[dx, dy, lag] [m/N], offsets -(n-1) ... n-1 along each axis (odd lengths; a larger centred
+        table serves any smaller patch).
+    static : bool
+        True: a quasi-static kernel (one lag; every step a static state, with its tangent dF/dd).
+    sample_rate : float, optional
+        fs [Hz] of a dynamic kernel's lags (for a static kernel, optional: the rate at which its
+        study samples time, e.g. a loading preset's path).
+    memory : MemoryModel, optional
+        The kernel beyond the kept lags (needed by dynamic runs longer than the kept lags).
+    element_size : float, optional
+        c [m] of the elements the kernel was computed for (checked against the surface's).
+    response : ElementFRF, optional
+        The exact frequency response (any object with ``frequency_response(frequencies, shape)``
+        returning complex offset tables [m/N]); without it, :meth:`frequency_response` transforms
+        the kept lags and the memory.
+    backing : callable, optional
+        Total surface force [N] per step -> force at the rigid backing [N] (dynamic kernels;
+        a static kernel's backing force is its surface force).
+    name : str
+        For messages (the material's name).
+    """
+
+    lags: np.ndarray
+    static: bool
+    sample_rate: float | None = None
+    memory: MemoryModel | None = None
+    element_size: float | None = None
+    response: ElementFRF | None = field(default=None, repr=False)
+    backing: Callable[[np.ndarray], np.ndarray] | None = field(default=None, repr=False)
+    name: str = "kernel"
+
+    def __post_init__(self) -> None:
+        g = np.asarray(self.lags, dtype=float)
+        if g.ndim != 3 or g.shape[2] < 1:
+            raise ValueError(f"{self.name}: expected kernel lags g[dx, dy, lag] with >= 1 lag, got shape {g.shape}")
+        if not isinstance(self.static, bool):
+            raise TypeError(f"{self.name}: static must be True or False, got {self.static!r}")
+        if self.static and g.shape[2] != 1:
+            raise ValueError(f"{self.name}: a static kernel has one lag, got {g.shape[2]}")
+        if self.static and self.memory is not None:
+            raise ValueError(f"{self.name}: a static kernel has no memory beyond its lag")
+        if not self.static:
+            checks.real(f"{self.name}: sample_rate", self.sample_rate, positive=True)
+        if self.memory is not None and not isinstance(self.memory, MemoryModel):
+            raise TypeError(f"{self.name}: memory {type(self.memory).__name__} lacks the MemoryModel protocol "
+                            "(delay, history, frequency_response, describe)")
+        object.__setattr__(self, "lags", g)
+
+    # ---------------------------------------------------------------------------------------
+    # construction
+    # ---------------------------------------------------------------------------------------
+    @classmethod
+    def quasistatic(cls, table, element_size: float | None = None, name: str = "kernel") -> "LayerKernel":
+        """A static kernel from g_static[dx, dy] [m/N]."""
+        g = np.asarray(table, dtype=float)
+        if g.ndim != 2:
+            raise ValueError(f"{name}: expected g_static[dx, dy], got shape {g.shape}")
+        return cls(g[:, :, None], True, element_size=element_size, name=name)
+
+    @classmethod
+    def dynamic(cls, lags, sample_rate: float, memory: MemoryModel | None = None, **kwargs) -> "LayerKernel":
+        """A dynamic kernel from g[dx, dy, lag] [m/N] sampled at ``sample_rate`` [Hz]."""
+        return cls(lags, False, float(sample_rate), memory, **kwargs)
+
+    @classmethod
+    def from_greens(cls, greens: xr.Dataset, mode: str, material=None) -> "LayerKernel":
+        """The kernel of a ``mode`` run from a greens dataset (docs/data_contracts.md "Greens dataset").
+
+        Parameters
+        ----------
+        greens : xarray.Dataset
+            A greens file's contents.
+        mode : {"dynamic", "quasistatic"}
+            ``dynamic``: the time-domain lags ``g`` with the creep tail (when the file has one);
+            ``quasistatic``: ``g_static``.
+        material : tyreroad.material.Material, optional
+            The layer's material: gives the exact element FRF (:meth:`frequency_response`) and the
+            backing force of dynamic runs.
+        """
+        if mode not in KERNEL_MODES:
+            raise ValueError(f"mode: expected one of {KERNEL_MODES}, got {mode!r}")
+        name = str(greens.attrs.get("material", getattr(material, "name", "kernel")))
+        c = greens.attrs.get("element_size")
+        c = None if c is None else float(c)
+        response = None if material is None or c is None else ElementFRF(material, c)
+        fs = float(greens.attrs["sample_rate"])
+        if mode == "quasistatic":
+            kernel = cls.quasistatic(greens["g_static"].transpose("dx", "dy").values, c, name)
+            # the study's sample rate stays with the static kernel: loadings sample time with it
+            return cls(kernel.lags, True, fs, element_size=c, response=response, name=name)
+        lags = greens["g"].transpose("dx", "dy", "lag").values
+        memory = None
+        if "tail_compliance" in greens:
+            spectrum = RetardationSpectrum(
+                float(greens.attrs["glassy_compliance"]),
+                np.asarray(greens["retardation_compliance"].values, dtype=float),
+                np.asarray(greens["retardation_time"].values, dtype=float),
+                float(greens.attrs["creep_fit_error"]),
+            )
+            r = greens["tail_compliance"].transpose("dx", "dy").values
+            memory = TailModel.from_spectrum(r, spectrum, fs, int(greens.sizes["lag"]))
+        backing = None
+        if material is not None:
+            # the layer's uniform-load transfer at the file's rate, on at least 4096 points
+            n_fft = max(int(float(greens.attrs.get("n_fft", 4096))), 4096)
+            backing = functools.partial(backing_force, material=material, sample_rate=fs, n_fft=n_fft)
+        return cls(lags, False, fs, memory, c, response, backing, name)
+
+    # ---------------------------------------------------------------------------------------
+    # what the solvers ask
+    # ---------------------------------------------------------------------------------------
+    @property
+    def n_lags(self) -> int:
+        """L, the kept lags."""
+        return int(self.lags.shape[2])
+
+    def table(self, shape) -> np.ndarray:
+        """The kept lags cropped to a patch's offsets, checked finite, shape (2 nx - 1, 2 ny - 1, L)."""
+        nx, ny = (checks.integer(f"shape[{i}]", v) for i, v in enumerate(shape))
+        return check_offset_kernel(self.lags, nx, ny, f"{self.name} kernel")
+
+    def check_element_size(self, element_size) -> None:
+        """Refuse a surface whose element size differs from the kernel's (1e-9 relative)."""
+        if element_size is None or self.element_size is None:
+            return
+        if not math.isclose(float(element_size), self.element_size, rel_tol=1e-9):
+            raise ValueError(f"element_size differs: surface {element_size} m, greens {self.element_size} m")
+
+    def needs_memory(self, n_steps: int | None) -> bool:
+        """True for a dynamic run longer than the kept lags (a one-lag dynamic kernel is memoryless)."""
+        return not self.static and self.n_lags > 1 and n_steps is not None and n_steps > self.n_lags
+
+    def collaborators(self, shape, settings: SolverSettings, workers: int = 1,
+                      n_steps: int | None = None) -> tuple[Substrate, History]:
+        """The substrate (G_0, Newton solve, tangent) and the history (kept lags + memory) of a run.
+
+        Parameters
+        ----------
+        shape : tuple of int
+            Patch (nx, ny).
+        settings : SolverSettings
+            ``resolved_method`` picks the dense or FFT path; ``long_memory``, the FFT solver's
+            tolerance, preconditioner tile and forcing.
+        workers : int
+            FFT workers.
+        n_steps : int, optional
+            Steps of the run: a dynamic run longer than the kept lags needs the memory.
+
+        Raises
+        ------
+        ValueError
+            If the run needs more memory than the kernel provides (none, or long memory off).
+        """
+        nx, ny = shape
+        g = self.table(shape)
+        n_lags = g.shape[2]
+        method = settings.resolved_method(nx * ny, n_steps, n_lags)
+        needs_memory = self.needs_memory(n_steps)
+        if needs_memory and (self.memory is None or not settings.long_memory):
+            why = ("solver.long_memory is off" if self.memory is not None
+                   else "the kernel has no memory beyond them (a greens file without a tail)")
+            raise ValueError(
+                f"the run needs {n_steps} steps of memory but the kernel keeps greens.n_lags = {n_lags} lags and "
+                f"{why}: switch solver.long_memory on (with a greens file from this version), or raise greens.n_lags "
+                f"to >= {n_steps}"
+            )
+        if method == "fft":
+            conv = OffsetConvolution(g, shape, workers=workers)
+            logger.info("FFT/Newton-Krylov path: %d x %d elements, %d lags, padded grid %s", nx, ny, n_lags, conv.padded)
+            substrate = FFTSubstrate(conv, settings.tolerance, block=settings.preconditioner_block,
+                                     eta_max=settings.krylov_forcing)
+            history = FFTHistory(conv)
+        else:
+            substrate = DenseSubstrate(OffsetInfluence(g[:, :, 0], shape))
+            history = DenseHistory(g, shape)
+        if needs_memory:
+            if self.memory.delay != n_lags:
+                raise ValueError(f"{self.name}: the memory starts at lag {self.memory.delay}, but the kernel keeps "
+                                 f"{n_lags} lags")
+            logger.info("long memory: %s", self.memory.describe())
+            history = HistorySum([history, self.memory.history(shape, method, workers)])
+        return substrate, history
+
+    def frequency_response(self, frequencies, shape) -> np.ndarray:
+        """G(dx, dy, f) [m/N] as complex offset tables, shape (n_f, 2 nx - 1, 2 ny - 1).
+
+        The exact response where the kernel has one (a material's element FRF), else the discrete
+        transfer function of the kernel itself, sum_l g[l] exp(-i 2 pi f l / fs) over the kept lags
+        plus the memory's part; a static kernel's is g_static at every frequency.
+        """
+        f = np.asarray(frequencies, dtype=float)
+        if f.ndim != 1 or np.any(f < 0) or not np.all(np.isfinite(f)):
+            raise ValueError("frequencies: expected a 1-D array of finite values >= 0 [Hz]")
+        if self.response is not None:
+            return np.asarray(self.response.frequency_response(f, tuple(shape)))
+        g = self.table(shape)
+        if self.static:
+            return np.broadcast_to(g[:, :, 0], (f.size,) + g.shape[:2]).astype(complex)
+        nx, ny = shape
+        z = np.exp(-2j * np.pi * f[:, None] / self.sample_rate * np.arange(g.shape[2])[None, :])
+        tables = np.einsum("fl,xyl->fxy", z, g)
+        if self.memory is not None:
+            cx, cy = (self.lags.shape[0] - 1) // 2, (self.lags.shape[1] - 1) // 2
+            tail = self.memory.frequency_response(f, self.sample_rate)
+            tables = tables + tail[:, cx - (nx - 1): cx + nx, cy - (ny - 1): cy + ny]
+        return tables
+
+    def backing_force(self, force) -> np.ndarray:
+        """Force at the rigid backing [N] of a run's total surface force [N]."""
+        force = np.asarray(force, dtype=float)
+        if self.static:
+            return force.copy()
+        if self.backing is None:
+            raise ValueError(f"{self.name}: the backing force of a dynamic run needs the material "
+                             "(LayerKernel.from_greens(..., material=...))")
+        return self.backing(force)
