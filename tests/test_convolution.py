@@ -15,6 +15,7 @@ from tyreroad.convolution import (
     _cg_update,
     _combine,
     _orthogonalize,
+    _tile_block,
     compliance_cg,
     padded_shape,
     pivoted_solve,
@@ -204,6 +205,29 @@ def test_block_preconditioner_inverts_tiles():
     pre1 = BlockJacobiPreconditioner(OffsetConvolution(g, (nx, ny)), 1)
     pre1.update(k)
     assert _rel(pre1.solve(r), r / (1.0 + g[nx - 1, ny - 1, 0] * k)) < 1e-14
+
+
+@pytest.mark.parametrize("nx, ny, b", [(7, 11, 4), (5, 3, 2), (3, 4, 8), (4, 4, 1)])
+def test_tile_block_is_the_lag0_matrix_of_one_tile(nx, ny, b):
+    """Both block preconditioners use one tile block, G_tile[p, q] = g[x_p - x_q, y_p - y_q, 0]
+    (element p of a tile at (p // by, p % by)), and the same tiling; b is clipped to the patch."""
+    rng = np.random.default_rng(16)
+    g = rng.standard_normal((2 * nx - 1, 2 * ny - 1, 2))  # not even: a transposed offset would show
+    conv = OffsetConvolution(g, (nx, ny))
+    bx, by = min(b, nx), min(b, ny)
+    # the top-left tile's rows and columns of the dense lag-0 matrix (explicit double loop)
+    corner = [x * ny + y for x in range(bx) for y in range(by)]
+    ref = _dense_matrices(g, nx, ny)[0][np.ix_(corner, corner)]
+    np.testing.assert_array_equal(_tile_block(conv.lag0, bx, by), ref)
+    for cls in (BlockJacobiPreconditioner, ComplianceBlockPreconditioner):
+        pre = cls(conv, b)
+        assert (pre.block, pre.bx, pre.by, pre.shape) == (b, bx, by, (nx, ny))
+        assert pre.tiles == (-(-nx // bx), -(-ny // by)) and pre.n_tiles == pre.tiles[0] * pre.tiles[1]
+        np.testing.assert_array_equal(pre._g_tile, ref)
+        with pytest.raises(RuntimeError, match=f"{cls.__name__}.solve called before update"):
+            pre.solve(np.zeros((nx, ny)))
+        with pytest.raises(ValueError, match="block: expected an integer >= 1, got 0"):
+            cls(conv, 0)
 
 
 # --- Newton-Krylov against a dense Newton solve ----------------------------------------------

@@ -125,9 +125,14 @@ def test_linear_tables_are_kept_as_two_points():
     zeta = np.array([-1e-6, 0.0, 3.3e-7, 4.2e-4, 2e-3])
     for table in (full, SpringTable.checked(k, f, 1e-6, 3)):
         for row in range(3):
-            force, stiff = table.evaluate(np.where(np.arange(3) == row, 0, 0) + zeta[:, None])
+            # spring `row` at zeta, the other two 0.7 mm further in: each spring must read its own
+            # compression and its own table row (an evaluation that mixed springs would see the shift)
+            z = zeta[:, None] + np.where(np.arange(3) == row, 0.0, 7e-4)
+            force, stiff = table.evaluate(z)
             np.testing.assert_allclose(force[:, row], k[row, 0] * np.maximum(zeta, 0), rtol=1e-13, atol=0)
             np.testing.assert_array_equal(stiff[:, row], np.where(zeta > 0, k[row, 0], 0.0))
+            np.testing.assert_allclose(force, k[:, 0] * np.maximum(z, 0), rtol=1e-13, atol=0)
+            np.testing.assert_array_equal(stiff, np.where(z > 0, k[:, 0], 0.0))
     # a table whose k varies keeps its grid
     k_var = k_full.copy()
     k_var[0, 500:] *= 2

@@ -417,7 +417,64 @@ def _tile_apply(inv, loaded, r, bx, by, out):  # pragma: no cover - numba
                     out[x0 + a, y0 + c] = acc
 
 
-class BlockJacobiPreconditioner:
+def _tile_block(lag0: np.ndarray, bx: int, by: int) -> np.ndarray:
+    """The lag-0 block of one bx x by tile, G_tile[p, q] = g[x_p - x_q, y_p - y_q, 0] [m/N].
+
+    Element p of a tile sits at (p // by, p % by). By translation invariance every tile of the
+    patch shares this block; the tile preconditioners differ only in the springs k.
+
+    Parameters
+    ----------
+    lag0 : numpy.ndarray
+        g[:, :, 0] [m/N], shape (2 nx - 1, 2 ny - 1) (offset dx at index dx + nx - 1).
+    bx, by : int
+        Tile size [elements], <= nx, ny.
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape (bx by, bx by), C-contiguous.
+    """
+    nx, ny = (lag0.shape[0] + 1) // 2, (lag0.shape[1] + 1) // 2
+    px, py = np.divmod(np.arange(bx * by), by)
+    return np.ascontiguousarray(lag0[px[:, None] - px[None, :] + nx - 1, py[:, None] - py[None, :] + ny - 1])
+
+
+class _TilePreconditioner:
+    """The tiling shared by the block preconditioners: b x b tiles of the patch and their lag-0 block.
+
+    Attributes
+    ----------
+    block : int
+        Requested tile edge b [elements].
+    shape : tuple of int
+        Patch (nx, ny).
+    bx, by : int
+        Tile size, b clipped to the patch.
+    tiles : tuple of int
+        Number of tiles along x and y (the last ones may stick out of the patch).
+    """
+
+    def __init__(self, conv: OffsetConvolution, block: int):
+        self.block = checks.integer("block", block)
+        nx, ny = conv.shape
+        self.shape = conv.shape
+        self.bx, self.by = min(self.block, nx), min(self.block, ny)
+        self.tiles = (-(-nx // self.bx), -(-ny // self.by))
+        self._g_tile = _tile_block(conv.lag0, self.bx, self.by)
+        self._ready = False
+
+    @property
+    def n_tiles(self) -> int:
+        """Number of tiles."""
+        return self.tiles[0] * self.tiles[1]
+
+    def _check_ready(self) -> None:
+        if not self._ready:
+            raise RuntimeError(f"{type(self).__name__}.solve called before update(stiffness)")
+
+
+class BlockJacobiPreconditioner(_TilePreconditioner):
     """Exact inverse of J = I + G_0 diag(k) restricted to square tiles of elements.
 
     The patch is cut into tiles of b x b elements (the last row/column of tiles padded with
@@ -436,18 +493,10 @@ class BlockJacobiPreconditioner:
     """
 
     def __init__(self, conv: OffsetConvolution, block: int = 4):
-        self.block = checks.integer("block", block)
-        nx, ny = conv.shape
-        self.bx, self.by = min(self.block, nx), min(self.block, ny)
-        self.tiles = (-(-nx // self.bx), -(-ny // self.by))
-        self.shape = conv.shape
-        px, py = np.divmod(np.arange(self.bx * self.by), self.by)
-        g0 = conv.lag0
-        self._g_tile = np.ascontiguousarray(g0[px[:, None] - px[None, :] + nx - 1, py[:, None] - py[None, :] + ny - 1])
-        n_tiles = self.tiles[0] * self.tiles[1]
-        self._inv = np.empty((n_tiles, self.bx * self.by, self.bx * self.by))
-        self._loaded = np.zeros(n_tiles, dtype=np.bool_)
-        self._ready = False
+        super().__init__(conv, block)
+        nb = self.bx * self.by
+        self._inv = np.empty((self.n_tiles, nb, nb))
+        self._loaded = np.zeros(self.n_tiles, dtype=np.bool_)
 
     def update(self, stiffness) -> None:
         """Factorise the tile blocks for spring stiffnesses k [N/m], shape (nx, ny)."""
@@ -461,8 +510,7 @@ class BlockJacobiPreconditioner:
 
         ``out``: a C-contiguous float array of nx ny entries to write into (returned reshaped).
         """
-        if not self._ready:
-            raise RuntimeError("BlockJacobiPreconditioner.solve called before update(stiffness)")
+        self._check_ready()
         r = np.ascontiguousarray(np.asarray(residual, dtype=float).reshape(self.shape))
         out = np.empty(self.shape) if out is None else out.reshape(self.shape)
         _tile_apply(self._inv, self._loaded, r, self.bx, self.by, out)
@@ -562,7 +610,7 @@ def _tile_loaded_apply(inv, pos, count, r, out):  # pragma: no cover - numba
             out[pos[t, i]] = z[i]
 
 
-class ComplianceBlockPreconditioner:
+class ComplianceBlockPreconditioner(_TilePreconditioner):
     """Block Jacobi for the compliance form G_0|C + diag(1/k_C) of the Newton Jacobian (conjugate gradients).
 
     Per square tile of b x b elements, the exact inverse of the compliance-form block over the
@@ -581,21 +629,12 @@ class ComplianceBlockPreconditioner:
     """
 
     def __init__(self, conv: OffsetConvolution, block: int = 4):
-        self.block = checks.integer("block", block)
-        nx, ny = conv.shape
-        self.shape = conv.shape
-        self.bx, self.by = min(self.block, nx), min(self.block, ny)
-        self.tiles = (-(-nx // self.bx), -(-ny // self.by))
-        px, py = np.divmod(np.arange(self.bx * self.by), self.by)
-        g0 = conv.lag0
-        self._g_tile = np.ascontiguousarray(g0[px[:, None] - px[None, :] + nx - 1, py[:, None] - py[None, :] + ny - 1])
-        n_tiles = self.tiles[0] * self.tiles[1]
+        super().__init__(conv, block)
         nb = self.bx * self.by
-        self._inv = np.empty((n_tiles, nb * (nb + 1) // 2))
-        self._idx = np.zeros((n_tiles, nb), dtype=np.int64)
-        self._pos = np.zeros((n_tiles, nb), dtype=np.int64)
-        self._count = np.zeros(n_tiles, dtype=np.int64)
-        self._ready = False
+        self._inv = np.empty((self.n_tiles, nb * (nb + 1) // 2))
+        self._idx = np.zeros((self.n_tiles, nb), dtype=np.int64)
+        self._pos = np.zeros((self.n_tiles, nb), dtype=np.int64)
+        self._count = np.zeros(self.n_tiles, dtype=np.int64)
 
     def update(self, stiffness) -> None:
         """Factorise the tiles for spring stiffnesses k >= 0 [N/m], shape (nx, ny) or flat."""
@@ -606,8 +645,7 @@ class ComplianceBlockPreconditioner:
 
     def solve(self, residual, out: np.ndarray | None = None) -> np.ndarray:
         """blockdiag(B_t^-1) r [N] for a field r [m] (0 outside the loaded set); returns (nx, ny)."""
-        if not self._ready:
-            raise RuntimeError("ComplianceBlockPreconditioner.solve called before update(stiffness)")
+        self._check_ready()
         r = np.ascontiguousarray(np.asarray(residual, dtype=float).ravel())
         if r.size != self.shape[0] * self.shape[1]:
             raise ValueError(f"residual: expected {self.shape[0] * self.shape[1]} entries, got {r.size}")
