@@ -339,3 +339,27 @@ def test_history_sum_type_check():
         HistorySum([DisplacementOnly()])
     with pytest.raises(TypeError, match="HistorySum: ndarray has no"):
         HistorySum([_kept_histories()[0], np.zeros(3)])
+
+
+def test_tail_history_takes_a_step_whose_displacement_was_not_asked():
+    """A step recorded without its displacement still feeds F[n - L] to the filter before its delay
+    slot is overwritten: the tail then equals that of a history asked at every step."""
+    rng = np.random.default_rng(41)
+    shape, delay = (3, 4), 3
+    r = rng.uniform(1e-7, 1e-6, (5, 7))
+    tail = TailModel(r, np.array([0.5, 0.3, 0.2]), np.array([0.9, 0.6, 0.2]), delay)
+    forces = rng.uniform(0.0, 10.0, (12, 12))
+    asked, skipping = TailHistory(tail, shape), TailHistory(tail, shape)
+    for n in range(12):
+        h = asked.displacement(n)
+        if n != 5:  # step 5 of the second history is recorded without asking its displacement
+            assert np.array_equal(skipping.displacement(n), h)
+        asked.record(n, forces[n])
+        skipping.record(n, forces[n])
+    np.testing.assert_allclose(skipping.displacement(12), asked.displacement(12), rtol=1e-15, atol=0)
+
+
+def test_dense_history_refuses_non_finite_forces():
+    hist = DenseHistory(np.ones((3, 3, 2)), (2, 2))
+    with pytest.raises(ValueError, match="NaN or infinite"):
+        hist.record(0, np.array([0.0, np.nan, 0.0, 0.0]))

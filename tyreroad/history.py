@@ -130,6 +130,8 @@ class DenseHistory:
 
     def record(self, n: int, force: np.ndarray) -> None:
         """Store F[n] [N], shape (M,), in ring slot n mod (L - 1)."""
+        if not np.all(np.isfinite(force)):
+            raise ValueError("DenseHistory.record: forces contain NaN or infinite values")
         self._steps.check_record(n, "DenseHistory")
         if self.n_lags > 1:
             slot = n % self._f_ring.shape[0]
@@ -333,14 +335,23 @@ class TailHistory:
         self._steps.check_displacement(n, "TailHistory")
         if n < self.delay:
             return np.zeros(self._filtered.size)
-        if self._updated_for != n:  # the filter advances once per step, however often it is asked
-            _tail_update(self._states, self._decays, self._weights, self._delay_line[n % self.delay], self._filtered)
-            self._updated_for = n
+        self._advance(n)
         return self._spatial(self._filtered)
 
+    def _advance(self, n: int) -> None:
+        """Feed F[n - L] to the filter, once per step, however often step n is asked or recorded."""
+        if n >= self.delay and self._updated_for != n:
+            _tail_update(self._states, self._decays, self._weights, self._delay_line[n % self.delay], self._filtered)
+            self._updated_for = n
+
     def record(self, n: int, force: np.ndarray) -> None:
-        """F[n] [N] enters the delay line (it reaches the filter at step n + L)."""
+        """F[n] [N] enters the delay line (it reaches the filter at step n + L).
+
+        The slot it takes held F[n - L], which the filter must have taken first: a step whose
+        displacement was not asked for still advances the filter here.
+        """
         self._steps.check_record(n, "TailHistory")
+        self._advance(n)
         self._delay_line[n % self.delay] = np.ravel(force)
 
 
