@@ -321,6 +321,23 @@ class LayerKernel:
             tables = tables + tail[:, cx - (nx - 1): cx + nx, cy - (ny - 1): cy + ny]
         return tables
 
+    def relaxed(self) -> "LayerKernel":
+        """The static kernel of the fully relaxed layer: sum_l g[dx, dy, l] over the kept lags and the
+        memory (the sum rule, the transfer function at f = 0).
+
+        For a greens file's layer this is g(omega = 0) with E(omega -> 0); the file's ``g_static``
+        uses the quasi-static modulus E_qs, equal to it by default (``quasi_static_modulus``).
+        """
+        if self.static:
+            return self
+        table = self.lags.sum(axis=2)
+        if self.memory is not None:
+            nx, ny = (table.shape[0] + 1) // 2, (table.shape[1] + 1) // 2
+            table = table + self.memory.frequency_response(np.zeros(1), self.sample_rate)[0].real[
+                : 2 * nx - 1, : 2 * ny - 1]
+        return LayerKernel(table[:, :, None], True, self.sample_rate, element_size=self.element_size,
+                           response=self.response, name=f"{self.name} (relaxed)")
+
     def backing_force(self, force) -> np.ndarray:
         """Force at the rigid backing [N] of a run's total surface force [N]."""
         force = np.asarray(force, dtype=float)

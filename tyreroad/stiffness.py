@@ -345,6 +345,10 @@ def stiffness_spectrum(
     method = settings.resolved_method(n_elem) if method is None else method
     if method not in ("dense", "fft"):
         raise ValueError(f"method: expected 'dense' or 'fft', got {method!r}")
+    element_size = getattr(response, "element_size", None) or relaxed.element_size
+    if element_size is None:
+        raise ValueError(f"{relaxed.name}: the stiffness spectrum records the element size; neither the relaxed "
+                         "kernel nor the response has one (LayerKernel element_size)")
     freq = spectrum.frequencies(sample_rate)
     states = preload_states(z1, springs, relaxed, spectrum.preloads, settings, threads)
     t_states = time.perf_counter() - t0
@@ -396,7 +400,6 @@ def stiffness_spectrum(
     if not math.isclose(e0, e_qs, rel_tol=1e-9):
         logger.warning("quasi-static modulus %.6g Pa differs from E(omega -> 0) = %.6g Pa: K*(f -> 0) is not the "
                        "tangent of the relaxed state", e_qs, e0)
-    element_size = getattr(response, "element_size", None) or relaxed.element_size
     ds = _dataset(states, freq, k_star, k_relaxed, iterations[:, 1:], method, n_elem, material, element_size,
                   sample_rate, e0, e_qs)
     ds.attrs["report_frequencies"] = np.asarray(spectrum.report_frequencies, dtype=float)
