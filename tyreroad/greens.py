@@ -70,7 +70,7 @@ import logging
 import math
 import time
 from dataclasses import dataclass
-from typing import Any, Mapping
+from typing import Any, Mapping, NamedTuple
 
 import numpy as np
 import scipy.special as sp
@@ -697,9 +697,17 @@ def _check_layer(poisson, density, thickness):
     checks.real("thickness", thickness, positive=True)
 
 
-def time_kernel(
-    frf, n_fft: int, n_lags: int, correction: np.ndarray | None = None
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+class TimeKernel(NamedTuple):
+    """What :func:`time_kernel` returns (see there)."""
+
+    kernel: np.ndarray
+    precursor_energy: np.ndarray
+    total_energy: np.ndarray
+    second_half_sum: np.ndarray
+    projected: np.ndarray | None
+
+
+def time_kernel(frf, n_fft: int, n_lags: int, correction: np.ndarray | None = None) -> TimeKernel:
     """Discrete impulse responses from FRF samples on f_j = j fs / n_fft.
 
     Parameters
@@ -712,10 +720,12 @@ def time_kernel(
         Kept lags L.
     correction : numpy.ndarray, optional
         Matrix M of :func:`precursor_correction`, shape (taps, n_fft/2); if given, M applied to the
-        negative-time samples g[-1], g[-2], ..., g[-n_fft/2] is returned as a fifth result.
+        negative-time samples g[-1], g[-2], ..., g[-n_fft/2] is returned as ``projected``.
 
     Returns
     -------
+    TimeKernel
+        A named tuple of:
     kernel : numpy.ndarray
         g[n], n < L, shape (L, ...) [m/N]; sum over all n_fft samples equals frf[0].
     precursor_energy : numpy.ndarray
@@ -724,8 +734,8 @@ def time_kernel(
         Energy over all n_fft samples, shape (...) [m^2/N^2].
     second_half_sum : numpy.ndarray
         Sum of g[n] over n >= n_fft/2 [m/N] (the precursor and the causal creep there), shape (...).
-    projected : numpy.ndarray
-        Only with ``correction``: M @ (g[-1], ..., g[-n_fft/2]), shape (taps, ...) [m/N].
+    projected : numpy.ndarray or None
+        With ``correction``: M @ (g[-1], ..., g[-n_fft/2]), shape (taps, ...) [m/N]; else None.
     """
     frf = np.asarray(frf)
     if frf.shape[0] != n_fft // 2 + 1:
@@ -734,12 +744,13 @@ def time_kernel(
         raise ValueError(f"n_lags must be in 1 ... n_fft/2, got {n_lags}")
     g = np.fft.irfft(frf, n=n_fft, axis=0)
     second_half = g[n_fft // 2 :]
-    out = (g[:n_lags].copy(), np.sum(second_half**2, axis=0), np.sum(g**2, axis=0), second_half.sum(axis=0))
-    if correction is None:
-        return out
-    if correction.shape[1:] != (n_fft // 2,):
-        raise ValueError(f"correction must have shape (taps, {n_fft // 2}), got {correction.shape}")
-    return out + (np.tensordot(correction, second_half[::-1], axes=1),)
+    projected = None
+    if correction is not None:
+        if correction.shape[1:] != (n_fft // 2,):
+            raise ValueError(f"correction must have shape (taps, {n_fft // 2}), got {correction.shape}")
+        projected = np.tensordot(correction, second_half[::-1], axes=1)
+    return TimeKernel(g[:n_lags].copy(), np.sum(second_half**2, axis=0), np.sum(g**2, axis=0),
+                      second_half.sum(axis=0), projected)
 
 
 def precursor_correction(n_precursor: int, taps: int = PRECURSOR_TAPS, band: float = PRECURSOR_BAND) -> np.ndarray:

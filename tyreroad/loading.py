@@ -4,6 +4,7 @@ With the layer displacement w_e excluded, spring e would be compressed by z1_e -
 closure that the loading prescribes (SPEC 1, 6). A *loading* is any object with
 
     ``n_steps``                     number of steps;
+    ``shape``                       the patch (nx, ny) [elements], M = nx ny springs;
     ``time``                        t_n [s], shape (n_steps,), or None for a sequence of static states;
     ``free_compression(n)``         z1_e - z2_e[n] [m], shape (M,);
     ``rest_compression()``          z1_e - z2_e before step 0, at rest (the Newton warm start of step 0);
@@ -49,6 +50,7 @@ class Loading(Protocol):
     """Prescribed motion; see the module docstring."""
 
     n_steps: int
+    shape: tuple[int, int]
     time: np.ndarray | None
 
     def free_compression(self, n: int) -> np.ndarray:  # pragma: no cover - protocol

@@ -180,6 +180,30 @@ def _unknown_step(delta, x, scale):
     return np.where(x > 0.0, scale * delta, delta)
 
 
+def _warm_start(zeta0, shift, predictor, springs, scale, f, k):
+    """The start (x, zeta) of a step's Newton iteration (see :func:`solve_step`'s ``shift``);
+    f, k are work arrays."""
+    predicted = None
+    if shift is not None and predictor is not None and predictor.direction is not None:
+        # the tangent of the start state (quasi-static runs whose solver keeps dzeta/dd)
+        springs.evaluate_into(zeta0, f, k)
+        predicted = predictor.predict(shift, k)
+    if shift is None:
+        zeta = zeta0.copy()
+        return _to_unknown(zeta, scale), zeta
+    if predicted is not None:
+        x0 = _to_unknown(zeta0, scale)
+        x = x0 + _unknown_step(predicted, x0, scale)
+        return x, _to_compression(x, scale)
+    if scale is None:
+        zeta = zeta0 + shift
+        return zeta, zeta
+    # the warm start moves the scaled unknown: a spring in contact keeps nearly its force
+    # (its compression changes by shift / s), the layer surface follows the indenter
+    x = _to_unknown(zeta0, scale) + shift
+    return x, _to_compression(x, scale)
+
+
 def solve_step(b, zeta0, springs: SpringTable, substrate: Substrate, tolerance: float, max_iterations: int,
                shift=None, predictor: Tangent | None = None) -> StepResult:
     """Solve R(zeta) = zeta - b + G_0 F(zeta) = 0 by Newton's method from ``zeta0``.
@@ -239,26 +263,7 @@ def solve_step(b, zeta0, springs: SpringTable, substrate: Substrate, tolerance: 
     f, k = np.empty(n_elem), np.empty(n_elem)
     f_try, k_try = np.empty(n_elem), np.empty(n_elem)
     scale = _kink_scale(springs, substrate, n_elem)
-    predicted = None
-    if shift is not None and predictor is not None and predictor.direction is not None:
-        # the tangent of the start state (quasi-static runs whose solver keeps dzeta/dd)
-        springs.evaluate_into(zeta0, f, k)
-        predicted = predictor.predict(shift, k)
-    if shift is None:
-        zeta = zeta0.copy()
-        x = _to_unknown(zeta, scale)
-    elif predicted is not None:
-        x0 = _to_unknown(zeta0, scale)
-        x = x0 + _unknown_step(predicted, x0, scale)
-        zeta = _to_compression(x, scale)
-    elif scale is None:
-        zeta = zeta0 + shift
-        x = zeta
-    else:
-        # the warm start moves the scaled unknown: a spring in contact keeps nearly its force
-        # (its compression changes by shift / s), the layer surface follows the indenter
-        x = _to_unknown(zeta0, scale) + shift
-        zeta = _to_compression(x, scale)
+    x, zeta = _warm_start(zeta0, shift, predictor, springs, scale, f, k)
     r = _residual(zeta, b, springs, substrate, f, k)
     rnorm = float(np.max(np.abs(r)))
     iterations = krylov = 0
