@@ -33,6 +33,8 @@ def open_study(path):
 
     See :func:`tyreroad.study.open_study`.
     """
+    # deferred on purpose: ``import tyreroad`` stays light (no xarray, numba) for planning and
+    # for the Snakemake adapters
     from .study import open_study as _open_study
 
     return _open_study(path)

@@ -46,9 +46,11 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 import xarray as xr
+import yaml
 
 from . import checks
 from .history import History
+from .hysteresis import dissipated_energy, loading_work
 from .influence import Tangent
 from .kernel import LayerKernel
 from .loading import IndentationPath, Loading, LoadingPreset, constant_acceleration_path, uniform_indentation_grid
@@ -593,10 +595,6 @@ def loading_dataset(
     attributes, and for paths that return to separation (cycles) the hysteresis: dissipated
     energy W = closed integral of F dd [J] and the work done while loading [J].
     """
-    import yaml
-
-    from .hysteresis import dissipated_energy, loading_work
-
     if mode not in MODES:
         raise ValueError(f"mode: expected one of {MODES}, got {mode!r}")
     attrs = {"mode": mode, "loading": preset.name, "loading_kind": preset.kind,

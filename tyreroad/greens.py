@@ -77,9 +77,9 @@ import scipy.special as sp
 import xarray as xr
 from numba import njit, prange
 
-from tyreroad import checks, layer
-from tyreroad.memory import fit_retardation_spectrum, wrapped_creep
-from tyreroad.reference import love
+from . import checks, layer
+from .memory import fit_retardation_spectrum, wrapped_creep
+from .reference import love
 
 logger = logging.getLogger(__name__)
 

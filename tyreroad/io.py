@@ -19,6 +19,7 @@ import hashlib
 import logging
 import os
 import tempfile
+from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 from typing import Any, Iterator, Mapping, Sequence
 
@@ -42,8 +43,6 @@ __all__ = [
 
 def code_version() -> str:
     """Return the installed tyreroad version (``"unknown"`` when not installed)."""
-    from importlib.metadata import PackageNotFoundError, version
-
     try:
         return version("tyreroad")
     except PackageNotFoundError:  # pragma: no cover - only when run from a bare source tree

@@ -24,6 +24,7 @@ z1 - z2 = gap0 + d carries no cancellation of absolute heights.
 from __future__ import annotations
 
 import math
+from pathlib import Path
 from typing import Protocol
 
 import numpy as np
@@ -244,8 +245,6 @@ class LoadingPreset:
     """
 
     def __init__(self, name: str, spec, base_dir="."):
-        from pathlib import Path
-
         self.name = str(name)
         where = f"loadings.{self.name}"
         spec = dict(spec or {})
@@ -368,8 +367,6 @@ def read_loading_table(path):
         Naming the file: unreadable, not two numeric columns, non-finite values, t not starting
         at 0 or not increasing.
     """
-    from pathlib import Path
-
     path = Path(path)
     try:
         text = path.read_text()

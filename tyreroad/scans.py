@@ -52,6 +52,9 @@ from pathlib import Path
 from typing import Any, Mapping
 
 import numpy as np
+import xarray as xr
+from scipy import ndimage
+from scipy.interpolate import LinearNDInterpolator, RegularGridInterpolator
 
 logger = logging.getLogger(__name__)
 
@@ -313,8 +316,6 @@ def _attr_unit(attrs: Mapping) -> Any:
 
 
 def _read_netcdf(path: Path, spec: ScanSpec, header_only: bool = False):
-    import xarray as xr
-
     try:
         ds = xr.open_dataset(path)
     except Exception as exc:  # netCDF4 raises various types for a corrupt file
@@ -810,14 +811,12 @@ def largest_valid_window(valid: np.ndarray) -> tuple[tuple[int, int], tuple[int,
         stack: list[int] = []
         hs = height.tolist()
         for j in range(ny + 1):
-            start = j
             while stack and hs[stack[-1]] >= hs[j]:
                 top = stack.pop()
                 width = j - (stack[-1] + 1 if stack else 0)
                 area = hs[top] * width
                 if area > best[0]:
                     best = (area, i - hs[top] + 1, (stack[-1] + 1 if stack else 0), hs[top], width)
-                start = top
             stack.append(j)
     _, i0, j0, ni, nj = best
     return (i0 * b, j0 * b), (ni * b, nj * b)
@@ -890,9 +889,6 @@ def fill_gaps(height: np.ndarray, path: str | Path = "scan") -> np.ndarray:
     numpy.ndarray
         Filled heights (a new array).
     """
-    from scipy import ndimage
-    from scipy.interpolate import LinearNDInterpolator
-
     h = np.array(height, dtype=float)
     missing = np.isnan(h)
     labels, count = ndimage.label(missing)
@@ -966,8 +962,6 @@ def to_element_grid(
     ScanError
         The patch is larger than the scan.
     """
-    from scipy.interpolate import RegularGridInterpolator
-
     n = int(samples_per_element)
     need = [int(p) * n for p in patch_elements]
     ext = scan.extent

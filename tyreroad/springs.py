@@ -78,7 +78,6 @@ from __future__ import annotations
 import functools
 import logging
 import math
-import numbers
 import time
 from dataclasses import dataclass
 from typing import Any, Mapping

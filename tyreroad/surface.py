@@ -55,7 +55,9 @@ from typing import Any, Mapping
 import numpy as np
 import scipy.fft
 import xarray as xr
+from scipy.optimize import brentq
 
+from . import scans
 from .texture import (
     MPD_BASELINE,
     PEAK_DEPTHS,
@@ -394,8 +396,6 @@ def skew_transform(height: np.ndarray, target: float) -> np.ndarray:
     numpy.ndarray
         Transformed heights [m].
     """
-    from scipy.optimize import brentq
-
     h = np.asarray(height, dtype=float)
     mean, std = h.mean(), h.std()
     g = (h - mean) / std
@@ -797,8 +797,6 @@ def prepare_surface(name: str, spec: Mapping, base_dir: str | Path = ".") -> xr.
         shape = (px * n, py * n) if params.field_size is None else _grid_shape(params.field_size, step)
         field_h = np.zeros(shape)
     else:
-        from tyreroad import scans
-
         scan_spec = scans.scan_spec_from_config(name, spec, COMMON_KEYS)
         scan = scans.read_scan(scan_spec, base_dir=base_dir)
         field_h = scans.to_element_grid(scan, step, selection.patch_elements, n)
