@@ -45,8 +45,8 @@ def part1(threads: int) -> None:
     from tyreroad.contact import SolverSettings, solve_path
     from tyreroad.greens import greens_dataset
     from tyreroad.loading import constant_acceleration_path
+    from tyreroad.kernel import LayerKernel
     from tyreroad.material import material_from_config
-    from tyreroad.memory import TailModel
     from tyreroad.springs import SpringTable
 
     cfg = load_config(ROOT / "config/config.yaml")
@@ -65,14 +65,14 @@ def part1(threads: int) -> None:
     t, d = constant_acceleration_path(FS, 5.0, 2.5e-4)
     settings = SolverSettings(method="fft")
     kernels = {
-        "256 lags + tail": (short["g"].transpose("dx", "dy", "lag").values, TailModel.from_greens(short)),
-        "4096 lags, explicit": (long["g"].transpose("dx", "dy", "lag").values, None),
+        "256 lags + tail": LayerKernel.from_greens(short, "dynamic"),
+        "4096 lags, explicit": LayerKernel.dynamic(long["g"].transpose("dx", "dy", "lag").values, FS),
     }
     runs = {}
-    for name, (kernel, tail) in kernels.items():
+    for name, kernel in kernels.items():
         t0 = time.perf_counter()
         runs[name] = solve_path(z1, table.stiffness, table.force, table.zeta_step, kernel, d, settings,
-                                time=t, threads=threads, tail=tail)
+                                time=t, threads=threads)
         print(f"{name}: {d.size} steps in {time.perf_counter() - t0:.1f} s", flush=True)
     a, b = runs["256 lags + tail"].force, runs["4096 lags, explicit"].force
     rel_max = np.max(np.abs(a - b)) / np.max(np.abs(b))
@@ -113,7 +113,8 @@ def part2_run(n_steps: int, with_tail: bool, threads: int) -> dict:
     import tyreroad.history as history_module
     from bench_convolution import synthetic_kernel
     from tyreroad.config import load_config
-    from tyreroad.contact import RunRecorder, SolverSettings, build_collaborators, march
+    from tyreroad.contact import RunRecorder, SolverSettings, march
+    from tyreroad.kernel import LayerKernel
     from tyreroad.loading import IndentationPath
     from tyreroad.material import material_from_config
     from tyreroad.memory import TailModel, fit_retardation_spectrum
@@ -133,7 +134,7 @@ def part2_run(n_steps: int, with_tail: bool, threads: int) -> dict:
         tail = TailModel.from_spectrum(residual, spectrum, FS, kernel.shape[2])
     settings = SolverSettings(method="fft", long_memory=True)
     contact._set_threads(threads)
-    substrate, history = build_collaborators(kernel, (nx, ny), settings, threads, n_steps, tail)
+    substrate, history = LayerKernel.dynamic(kernel, FS, tail).collaborators((nx, ny), settings, threads, n_steps)
     stamps, tail_times = [], []
     step_solver = contact.solve_step
     tail_displacement = history_module.TailHistory.displacement

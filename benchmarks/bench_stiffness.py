@@ -113,6 +113,7 @@ def part_large(cfg, args) -> None:
 
     from tyreroad.contact import SolverSettings
     from tyreroad.greens import offset_table_index, static_element_kernel, unique_offsets
+    from tyreroad.kernel import ElementFRF, LayerKernel
     from tyreroad.material import material_from_config
     from tyreroad.pipeline import spring_material_inputs
     from tyreroad.springs import SpringModel, SpringTable, element_springs, resolve_spring_modulus
@@ -147,8 +148,9 @@ def part_large(cfg, args) -> None:
     logging.basicConfig(level=logging.INFO, format="   %(name)s: %(message)s")
     logging.getLogger("tyreroad.contact").setLevel(logging.WARNING)
     t0 = time.perf_counter()
-    ds = stiffness_spectrum(surface["z1"].transpose("ex", "ey").values, springs, g_static, mat, c,
-                            float(cfg["greens"].get("sample_rate", 51200.0)), spectrum, settings, args.threads)
+    ds = stiffness_spectrum(surface["z1"].transpose("ex", "ey").values, springs, LayerKernel.quasistatic(g_static),
+                            ElementFRF(mat, c), mat, float(cfg["greens"].get("sample_rate", 51200.0)), spectrum,
+                            settings, args.threads)
     total = time.perf_counter() - t0
     its = ds["krylov_iterations"].values
     print(f"total {total:.1f} s ({ds.attrs['method']}); {100 * float(ds['contact_fraction'][0]):.1f} % in contact, "

@@ -115,8 +115,8 @@ def _naive_solver(contact, SpringTable):
 
     import numpy as np
 
-    from tyreroad.loading import IndentationPath
-    from tyreroad.memory import TailModel
+    from tyreroad.kernel import LayerKernel
+    from tyreroad.loading import IndentationPath, constant_acceleration_path, uniform_indentation_grid
 
     def run(surface, springs, greens, material, mode, acceleration, settings, threads=1):
         z1 = surface["z1"].transpose("ex", "ey").values
@@ -126,15 +126,12 @@ def _naive_solver(contact, SpringTable):
                             np.ascontiguousarray(raw.force.reshape(-1, n)))
         assert table.stiffness.dtype == np.float32 and table.force.dtype == np.float32
         assert math.prod(z1.shape) == table.n_springs
+        kernel = LayerKernel.from_greens(greens, mode, material)
         if mode == "dynamic":
-            t, d = contact.dynamic_indentation(float(greens.attrs["sample_rate"]), acceleration, settings.d_max)
-            kernel = greens["g"].transpose("dx", "dy", "lag").values
-            tail = TailModel.from_greens(greens)
+            t, d = constant_acceleration_path(kernel.sample_rate, acceleration, settings.d_max)
         else:
-            t, d = None, contact.quasistatic_indentation(settings)
-            kernel = greens["g_static"].transpose("dx", "dy").values[:, :, None]
-            tail = None
-        return contact.run_loading_path(IndentationPath(z1, d, t), table, kernel, settings, threads, tail)
+            t, d = None, uniform_indentation_grid(settings.d_max, settings.quasistatic_step)
+        return contact.run_loading_path(IndentationPath(z1, d, t), table, kernel, settings, threads)
 
     return run
 
