@@ -11,6 +11,7 @@ from tyreroad.contact import SolverSettings
 from tyreroad.greens import greens_dataset, offset_table_index, static_element_kernel, unique_offsets
 from tyreroad.material import material_from_config
 from tyreroad.memory import TailModel
+from tyreroad.report import ReportContext, rolling_section
 from tyreroad.rolling import (
     RollingPass,
     RollingSettings,
@@ -18,7 +19,6 @@ from tyreroad.rolling import (
     band_levels,
     pass_positions,
     rolling_dataset,
-    rolling_section,
     solve_rolling,
     static_indentation,
     steady_mask,
@@ -291,8 +291,8 @@ def test_aggregate_and_report_section():
     chat["steady"] = chat["steady"].copy(data=(runs[1]["force"].values > 0).astype(np.int8))
     flagged = aggregate_rolling([runs[0], chat])
     assert float(flagged["chatter"][1]) > 2 * 0.05 and float(flagged["chatter"][0]) == 0.0
-    assert "Not trustworthy: tread at 20 m/s" in "\n".join(rolling_section(flagged))
-    text = "\n".join(rolling_section(agg))
+    assert "Not trustworthy: tread at 20 m/s" in "\n".join(rolling_section(ReportContext(rolling=flagged)))
+    text = "\n".join(rolling_section(ReportContext(rolling=agg)))
     assert "| tread | quasistatic | 5 |" in text and "| tread | quasistatic | 20 |" in text
     assert "differs by at most 0.0e+00 of its peak" in text
 
