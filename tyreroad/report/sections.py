@@ -101,6 +101,60 @@ def _material_config(ds: xr.Dataset, name: str) -> dict:
         return {}
 
 
+# --------------------------------------------------------------------------------------------------
+# the claims report results/report.md
+# --------------------------------------------------------------------------------------------------
+def header_section(ctx: ReportContext) -> list[str]:
+    """Title, versions, config hashes, the reference case and how K and K_sat are computed."""
+    study, settings = ctx.claims.study, ctx.claims.settings
+    a_ref = max(settings.accelerations)
+    return [
+        "# tyreroad: claims of Winroth, Andersson & Kropp (JSV 2014) checked",
+        "",
+        f"- tyreroad version: {io.code_version()} (study file made by "
+        f"{study.attrs.get('tyreroad_version', 'unknown')})",
+        f"- report config SHA-256: `{io.config_hash(ctx.config)}` — hash of the config this report was made "
+        "from (the `study` section and the variant groups, printed at the end)",
+        f"- study file config SHA-256: `{study.attrs.get('config_sha256', 'not recorded')}` — hash recorded "
+        "in results/study.nc of the config that made it (`study` section and `d_max`); the two hash "
+        "different sections, so they differ; each changes when its own config changes",
+        f"- surface `{settings.surface}`, reference material `{settings.reference_material}`, "
+        f"reference case: dynamic at a = {a_ref:g} m/s², d_max = {settings.d_max * _MM:g} mm",
+        f"- K = dF/dd by second-order differences on each run's native samples, then linear interpolation "
+        f"onto a {settings.indentation_step * 1e6:g} µm grid"
+        + ("; quasi-static runs: the tangent dF/dd of each solved state, F and K by cubic Hermite "
+           "interpolation" if "stiffness_from_tangent" in study and int(study["stiffness_from_tangent"].sum()) else "")
+        + "; K_sat = median K over "
+        f"[{settings.saturation_range[0] * _MM:g}, {settings.saturation_range[1] * _MM:g}] mm",
+        "",
+    ]
+
+
+def claims_section(ctx: ReportContext) -> list[str]:
+    """The claims table: one row per claim of the registry, with the count of claims that hold."""
+    claims = [ctx.results[n] for n in sorted(ctx.results)]
+    n_hold = sum(c.verdict == HOLDS for c in claims)
+    n_eval = sum(c.verdict != NOT_EVALUATED for c in claims)
+    n_opposite = sum(c.verdict == DIRECTION_OPPOSITE for c in claims)
+    summary = f"{n_hold} of {n_eval} evaluated hold"
+    if n_opposite:
+        summary += f", {n_opposite} hold{'s' if n_opposite == 1 else ''} in size with the opposite direction"
+    lines = [
+        f"## Seed claims: {summary}",
+        "",
+        "Verdicts: **holds** (as the seed says), **size holds, direction opposite** (the size of the effect "
+        "is the seed's, its sign is not), **fails**.",
+        "",
+        "| # | claim (seed) | test and threshold | measured | verdict |",
+        "|---|---|---|---|---|",
+    ]
+    for c in claims:
+        lines.append(f"| {c.number} | {c.claim} | {c.test} | {c.measured} | **{c.verdict}** |")
+    return lines + [""]
+
+
+
+
 def surface_section(ctx: ReportContext) -> list[str]:
     """Texture statistics of the study's road surface (none without a surface dataset)."""
     surface = ctx.surface
@@ -478,60 +532,6 @@ def _run_note(ctx: ReportContext) -> str:
     return (f"the longest dynamic run has {longest} steps, the kernel keeps {min(lags)} lags: "
             + ("the runs never reach beyond the kept memory" if longest <= min(lags) else
                "longer runs need the kernel's long-memory tail"))
-
-
-# --------------------------------------------------------------------------------------------------
-# the claims report results/report.md
-# --------------------------------------------------------------------------------------------------
-def header_section(ctx: ReportContext) -> list[str]:
-    """Title, versions, config hashes, the reference case and how K and K_sat are computed."""
-    study, settings = ctx.claims.study, ctx.claims.settings
-    a_ref = max(settings.accelerations)
-    return [
-        "# tyreroad: claims of Winroth, Andersson & Kropp (JSV 2014) checked",
-        "",
-        f"- tyreroad version: {io.code_version()} (study file made by "
-        f"{study.attrs.get('tyreroad_version', 'unknown')})",
-        f"- report config SHA-256: `{io.config_hash(ctx.config)}` — hash of the config this report was made "
-        "from (the `study` section and the variant groups, printed at the end)",
-        f"- study file config SHA-256: `{study.attrs.get('config_sha256', 'not recorded')}` — hash recorded "
-        "in results/study.nc of the config that made it (`study` section and `d_max`); the two hash "
-        "different sections, so they differ; each changes when its own config changes",
-        f"- surface `{settings.surface}`, reference material `{settings.reference_material}`, "
-        f"reference case: dynamic at a = {a_ref:g} m/s², d_max = {settings.d_max * _MM:g} mm",
-        f"- K = dF/dd by second-order differences on each run's native samples, then linear interpolation "
-        f"onto a {settings.indentation_step * 1e6:g} µm grid"
-        + ("; quasi-static runs: the tangent dF/dd of each solved state, F and K by cubic Hermite "
-           "interpolation" if "stiffness_from_tangent" in study and int(study["stiffness_from_tangent"].sum()) else "")
-        + "; K_sat = median K over "
-        f"[{settings.saturation_range[0] * _MM:g}, {settings.saturation_range[1] * _MM:g}] mm",
-        "",
-    ]
-
-
-def claims_section(ctx: ReportContext) -> list[str]:
-    """The claims table: one row per claim of the registry, with the count of claims that hold."""
-    claims = [ctx.results[n] for n in sorted(ctx.results)]
-    n_hold = sum(c.verdict == HOLDS for c in claims)
-    n_eval = sum(c.verdict != NOT_EVALUATED for c in claims)
-    n_opposite = sum(c.verdict == DIRECTION_OPPOSITE for c in claims)
-    summary = f"{n_hold} of {n_eval} evaluated hold"
-    if n_opposite:
-        summary += f", {n_opposite} hold{'s' if n_opposite == 1 else ''} in size with the opposite direction"
-    lines = [
-        f"## Seed claims: {summary}",
-        "",
-        "Verdicts: **holds** (as the seed says), **size holds, direction opposite** (the size of the effect "
-        "is the seed's, its sign is not), **fails**.",
-        "",
-        "| # | claim (seed) | test and threshold | measured | verdict |",
-        "|---|---|---|---|---|",
-    ]
-    for c in claims:
-        lines.append(f"| {c.number} | {c.claim} | {c.test} | {c.measured} | **{c.verdict}** |")
-    return lines + [""]
-
-
 
 
 # --------------------------------------------------------------------------------------------------
