@@ -9,8 +9,9 @@ import pytest
 import xarray as xr
 
 from tyreroad.contact import RunRecorder, SolverSettings, loading_dataset, march
+from tyreroad.hysteresis import aggregate_loading, dissipated_energy, loading_work
 from tyreroad.kernel import LayerKernel
-from tyreroad.hysteresis import aggregate_loading, dissipated_energy, hysteresis_section, loading_work
+from tyreroad.report import ReportContext, hysteresis_section
 from tyreroad.loading import LoadingPreset, SeparatingPath, cycle_path, harmonic_path, read_loading_table
 from tyreroad.material import material_from_config
 from tyreroad.memory import TailModel, fit_retardation_spectrum
@@ -187,6 +188,6 @@ def test_loading_study_and_report_section(cycle_problem):
     assert ds["loss_ratio"].values[1] == pytest.approx(w[1] / ds["loading_work"].values[1])
     n_dyn = runs[1].sizes["step"]
     assert np.isfinite(ds["loop_force"].values[1, :n_dyn]).all()
-    text = "\n".join(hysteresis_section(ds))
+    text = "\n".join(hysteresis_section(ReportContext(loading=ds)))
     assert "| tread | dynamic | cycle |" in text and f"{1e3 * w[1]:.4g}" in text
     assert isinstance(ds, xr.Dataset)

@@ -425,3 +425,21 @@ def test_report_marks_failures(passing_study):
     row8 = next(line for line in text.splitlines() if line.startswith("| 8 |"))
     assert row8.rstrip().endswith("**fails** |") and "(-25." in row8
     assert "## Road surface" not in text
+
+
+def test_report_prose_reads_the_context_thresholds_and_settings(passing_study):
+    """The sections read the thresholds given to build_report and the study's own saturation range,
+    not the module's defaults or literals (claim 5's d was written 0.15 mm, the range's start 0.18 mm)."""
+    text = build_report(passing_study, None, None, SETTINGS, VARIANTS)
+    assert "| contact fraction at 0.15 mm |" in text
+    assert "in contact at 0.15 mm (seed ≈ 50 %)" in text and "Few new contacts beyond 0.18 mm: K saturates." in text
+    narrow = replace(SETTINGS, saturation_range=(2.0e-4, 2.5e-4))
+    text = build_report(passing_study, None, None, narrow, VARIANTS,
+                        thresholds={"c5_d": 0.1e-3, "c5_change_max": 0.2, "c7_ripple_ratio_min": 1.5})
+    assert "| contact fraction at 0.1 mm |" in text and "| contact fraction at 0.15 mm |" not in text
+    assert "in contact at 0.1 mm (seed ≈ 50 %)" in text and "(limit 20 %)" in text
+    assert "Few new contacts beyond 0.2 mm: K saturates." in text
+    assert "the test asks ≥ 1.5)" in text
+    # the cases table's fraction is read at the context's d: 0.5 (1 - exp(-2)) / (1 - exp(-3)) at 0.1 mm
+    row = next(line for line in text.splitlines() if line.startswith("| ref/dynamic/500 |"))
+    assert f"| {F_MAX * (1 - math.exp(-2.0)):.3f} |" in row

@@ -14,12 +14,13 @@ import pytest
 import yaml
 
 from tyreroad import sensitivity as S
-from tyreroad.contact import SolverSettings, solve_run
+from tyreroad.contact import SolverSettings, contact_dataset, solve_run
 from tyreroad.greens import greens_dataset
 from tyreroad.material import material_from_config
 from tyreroad.pipeline import resolved_material_config
+from tyreroad.report import THRESHOLDS
 from tyreroad.springs import SpringModel, element_springs, resolve_spring_modulus
-from tyreroad.study import contact_stiffness, hermite_on_grid, interp_on_grid, saturated_stiffness
+from tyreroad.study import StudySettings, aggregate
 from tyreroad.surface import prepare_surface
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -88,9 +89,9 @@ def test_planned_points_and_files(cfg):
 # ----------------------------------------------------------------------------------------------
 # one real point
 # ----------------------------------------------------------------------------------------------
-def _direct_ksat(cfg, surface, preset, mode, accel, grid, sat):
-    """K_sat by direct calls of the stage functions (what the study's rules do)."""
-    mat = material_from_config("m", {"m": preset})
+def _direct_run(cfg, surface, preset, name, mode, accel):
+    """The contact dataset of one run by direct calls of the stage functions (what the study's rules do)."""
+    mat = material_from_config(name, {name: preset})
     model = SpringModel.from_config(cfg["springs"])
     springs = element_springs(surface, model, modulus=resolve_spring_modulus(model, mat.quasi_static_modulus),
                               poisson=mat.poisson, thickness=mat.thickness)
@@ -98,11 +99,7 @@ def _direct_ksat(cfg, surface, preset, mode, accel, grid, sat):
     greens = greens_dataset(mat, n_elements=(6, 6), element_size=1e-3, sample_rate=g["sample_rate"],
                             n_lags=g["n_lags"], n_fft=g["n_fft"])
     res = solve_run(surface, springs, greens, mat, mode, accel, SolverSettings.from_config(cfg["solver"]))
-    if res.tangent_stiffness is not None:  # quasi-static: K from the tangent, as the study takes it
-        k = hermite_on_grid(grid, res.indentation, res.force, res.tangent_stiffness)[1]
-    else:
-        k = interp_on_grid(grid, res.indentation, contact_stiffness(res.indentation, res.force))
-    return saturated_stiffness(grid, k, sat)
+    return contact_dataset(res, mode, accel, "iso10844", name)
 
 
 @pytest.fixture(scope="module")
@@ -117,18 +114,31 @@ def points(cfg):
     return out
 
 
-def test_point_matches_the_stage_functions(cfg, points):
+def test_point_matches_the_study_of_the_same_runs(cfg, points):
+    """The point's K(d), contact fraction and K_sat are those study.aggregate makes of the same runs."""
     ds = points["plain"].isel(point=0)
     ref = resolved_material_config("tread", cfg["materials"])
-    grid = ds["indentation"].values
-    sat = tuple(cfg["study"]["saturation_range"])
     surface = prepare_surface("iso10844", cfg["surfaces"]["iso10844"])
     assert float(ds["modulus_factor"]) == 1.0 and int(ds["calibration_runs"]) == 1
-    ks = ds["saturated_stiffness"]
-    assert float(ks.sel(variant="reference")) == pytest.approx(_direct_ksat(cfg, surface, ref, "dynamic", 500.0, grid, sat), rel=1e-12)
     high = dict(ref, loss_scale=1.5)
-    assert float(ks.sel(variant="eta-high")) == pytest.approx(_direct_ksat(cfg, surface, high, "dynamic", 500.0, grid, sat), rel=1e-12)
-    assert float(ks.sel(variant="quasistatic")) == pytest.approx(_direct_ksat(cfg, surface, ref, "quasistatic", 0.0, grid, sat), rel=1e-12)
+    runs = [_direct_run(cfg, surface, preset, name, mode, a) for name, preset in (("ref", ref), ("high", high))
+            for mode, a in (("quasistatic", 0.0), ("dynamic", 500.0))]
+    settings = StudySettings.from_config({**{k: cfg["study"][k] for k in ("indentation_step", "saturation_range")},
+                                          "surface": "iso10844", "reference_material": "ref",
+                                          "materials": ["ref", "high"], "accelerations": [500.0]},
+                                         d_max=cfg["solver"]["d_max"])
+    study = aggregate(runs, settings)
+    np.testing.assert_array_equal(ds["indentation"].values, study["indentation"].values)
+    for variant, (material, mode, a) in {"reference": ("ref", "dynamic", 500.0), "eta-high": ("high", "dynamic", 500.0),
+                                         "quasistatic": ("ref", "quasistatic", 0.0)}.items():
+        case = study.study.sel_case(material, mode, a)
+        point = ds.sel(variant=variant)
+        # bit for bit: one implementation of K(d) (a quasi-static run: the tangent's Hermite interpolant, and
+        # the contact fraction counted between the solved states, which the sweep's own copy had not done)
+        np.testing.assert_array_equal(point["stiffness"].values, case["stiffness"].values)
+        np.testing.assert_array_equal(point["contact_fraction"].values, case["contact_fraction"].values)
+        assert float(point["saturated_stiffness"]) == float(case["saturated_stiffness"])
+    ks = ds["saturated_stiffness"]
     delta = ds["loss_delta"].values
     k_ref = float(ks.sel(variant="reference"))
     np.testing.assert_allclose(delta, [float(ks.sel(variant=v)) / k_ref - 1 for v in ("eta-low", "eta-high")], rtol=1e-12)
@@ -137,6 +147,47 @@ def test_point_matches_the_stage_functions(cfg, points):
     # the dynamic run is stiffer than the quasi-static one: the equivalent factor exceeds 1
     assert float(ds["equivalent_modulus_scale"]) > 1.2
     assert int(ds["contact_runs"]) == 5 and float(ds["wall_time"]) > 0
+
+
+def _synthetic_runs(density_ripple=0.03):
+    """Runs of a point with known curves: K = S (1 - exp(-d/s)) plus a decaying 25 um ripple; the loss
+    variants scale K by 0.975 / 1.03 (the seed's direction, ~3 %), the density variant by 1.01 with a
+    ripple ``density_ripple`` (reference 0.01), the quasi-static run is 0.8 S without ripple."""
+    study = S._point_study("p", {"indentation_step": 1e-6, "saturation_range": [1.8e-4, 2.5e-4]}, 2.5e-4,
+                           S.SensitivitySettings.from_config({"points": {"p": None}}))
+    d = study.grid
+    rise = 1 - np.exp(-d / 4e-5)
+    wave = np.sin(2 * np.pi * d / 25e-6) * np.exp(-d / 4e-5)
+    fraction = 0.5 * (1 - np.exp(-d / 5e-5)) / (1 - np.exp(-3.0))  # 0.5 at 0.15 mm
+    curves = {"reference": (1.0, 0.01), "eta-low": (0.975, 0.01), "eta-high": (1.03, 0.01),
+              "rho-high": (1.01, density_ripple), "quasistatic": (0.8, 0.0)}
+    runs = {}
+    for v, (scale, rip) in curves.items():
+        k = 2.75e6 * scale * (rise + rip * wave)
+        runs[v] = {"stiffness": k, "contact_fraction": fraction,
+                   "ksat": S.saturated_stiffness(d, k, study.saturation_range)}
+    return runs, study
+
+
+def test_point_verdicts_are_the_report_claims():
+    """measure_claims gives the report's verdicts; claim 7 keeps the report's condition that the variant
+    is heavier (the sweep's former copy dropped it and called a lighter variant's ripples a pass)."""
+    runs, study = _synthetic_runs()
+    heavy = S.measure_claims(runs, study, S.SensitivitySettings.from_config({"points": {"p": None}}))
+    assert heavy["loss_delta"] == pytest.approx({0.5: -0.025, 1.5: 0.03}, rel=1e-9, abs=1e-12)
+    assert (heavy["claim5_verdict"], heavy["claim6_verdict"], heavy["claim7_verdict"]) == ("holds", "holds", "holds")
+    assert heavy["fraction_at_c5"] == pytest.approx(0.5, rel=1e-9)
+    # three times the reference's ripple amplitude; the smooth rise's own residual lowers the ratio a little
+    assert 2.5 < heavy["ripple_ratio"] < 3.0 and heavy["density_delta"] == pytest.approx(0.01, abs=5e-4)
+    # the same curves with the density variant labelled x0.5: sizes and ripple ratio pass, the claim does not
+    light = S.measure_claims(runs, study, S.SensitivitySettings.from_config({"points": {"p": None},
+                                                                            "density_scale": 0.5}))
+    assert light["ripple_ratio"] == heavy["ripple_ratio"] >= THRESHOLDS["c7_ripple_ratio_min"]
+    assert abs(light["density_delta"]) <= THRESHOLDS["c7_delta_max"]
+    assert light["claim7_verdict"] == "fails"
+    # a density variant without extra ripples fails as the report says
+    flat, _ = _synthetic_runs(density_ripple=0.01)
+    assert S.measure_claims(flat, study, S.SensitivitySettings.from_config({"points": {"p": None}}))["claim7_verdict"] == "fails"
 
 
 def test_calibration_reaches_the_target(points):

@@ -8,6 +8,8 @@ force at the same indentation. The energy the tread dissipates over the closed p
 
 (trapezoid on the native steps; the path starts and ends without contact, so it closes). W >= 0
 for a passive tread; a quasi-static run has no rate dependence and gives W = 0 to round-off.
+
+The report's section on the cycles is :func:`tyreroad.report.hysteresis_section`.
 """
 
 from __future__ import annotations
@@ -23,7 +25,7 @@ from . import io
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["dissipated_energy", "loading_work", "aggregate_loading", "hysteresis_section"]
+__all__ = ["dissipated_energy", "loading_work", "aggregate_loading"]
 
 
 def dissipated_energy(indentation, force) -> float:
@@ -106,24 +108,3 @@ def aggregate_loading(runs: Iterable[xr.Dataset | str | Path]) -> xr.Dataset:
         },
     )
 
-
-def hysteresis_section(loading: xr.Dataset) -> list[str]:
-    """Markdown lines of the report section on load-unload cycles (W per case)."""
-    lines = [
-        "## Load-unload cycles: hysteresis",
-        "",
-        "Each cycle loads at constant speed, holds, and unloads until every element has separated "
-        "(SPEC 10). W is the closed integral of F dd; a quasi-static run has no rate dependence, so its "
-        "W is round-off.",
-        "",
-        "| material | mode | loading | W [mJ] | loading work [mJ] | W / loading work | peak force [N] |",
-        "|---|---|---|---:|---:|---:|---:|",
-    ]
-    for i in range(loading.sizes["case"]):
-        c = loading.isel(case=i)
-        lines.append(
-            f"| {c['material'].item()} | {c['mode'].item()} | {c['loading'].item()} | "
-            f"{1e3 * float(c['dissipated_energy']):.4g} | {1e3 * float(c['loading_work']):.4g} | "
-            f"{float(c['loss_ratio']):.3g} | {float(c['peak_force']):.4g} |"
-        )
-    return lines + [""]

@@ -277,13 +277,11 @@ def run_report(
     stiffness-spectrum files, the section on K*(f; d0); given ``loading_nc`` (results/loading.nc),
     the hysteresis of the load-unload cycles. (The rolling section is ``results/rolling.md`` of the
     named target ``rolling``.)"""
-    from .hysteresis import hysteresis_section
     from .report import build_report, write_report
     from .study import StudySettings, open_study
 
     study = open_study(study_nc)
     settings = StudySettings.from_config(study_cfg, d_max=float(study.attrs["d_max_m"]))
-    extra = [] if loading_nc is None else [hysteresis_section(io.read_dataset(loading_nc))]
     text = build_report(
         study,
         io.read_dataset(surface_nc),
@@ -292,7 +290,7 @@ def run_report(
         variants,
         config={"study": dict(study_cfg), "variants": dict(variants)},
         spectra=[io.read_dataset(p) for p in spectra_ncs],
-        extra_sections=extra,
+        loading=None if loading_nc is None else io.read_dataset(loading_nc),
     )
     write_report(text, out_md)
 
@@ -461,10 +459,6 @@ def run_rolling_figures(rolling_nc: str | Path, map_ncs: Sequence[str | Path], o
 
 def run_rolling_report(rolling_nc: str | Path, out_md: str | Path) -> None:
     """``results/rolling.md``: the report's rolling section (table per material and speed)."""
-    from .report import write_report
-    from .rolling import rolling_section
+    from .report import build_rolling_report, write_report
 
-    ds = io.read_dataset(rolling_nc)
-    lines = ["# tyreroad: rolling contact", "", *rolling_section(ds), "## Config", "", "```yaml",
-             str(ds.attrs.get("config", "")).rstrip(), "```", ""]
-    write_report("\n".join(lines), out_md)
+    write_report(build_rolling_report(io.read_dataset(rolling_nc)), out_md)

@@ -66,6 +66,7 @@ from typing import Any, Iterable, Mapping, Sequence
 
 import numpy as np
 import xarray as xr
+from scipy.interpolate import CubicHermiteSpline
 
 from . import io
 from .contact import MODES
@@ -82,6 +83,8 @@ __all__ = [
     "hermite_on_grid",
     "loading_branch",
     "equivalent_modulus_scale",
+    "native_samples",
+    "case_on_grid",
     "aggregate",
     "open_study",
     "variant_members",
@@ -354,8 +357,6 @@ def hermite_on_grid(grid: np.ndarray, x: np.ndarray, y: np.ndarray, dydx: np.nda
     (numpy.ndarray, numpy.ndarray)
         y and dy/dx on ``grid``.
     """
-    from scipy.interpolate import CubicHermiteSpline
-
     grid = np.asarray(grid, dtype=float)
     x = np.asarray(x, dtype=float)
     spline = CubicHermiteSpline(x, np.asarray(y, dtype=float), np.asarray(dydx, dtype=float), extrapolate=True)
@@ -471,7 +472,33 @@ def _run_key(ds: xr.Dataset, src: str, settings: StudySettings) -> tuple[str, st
     return material, mode, accel
 
 
-def _native(ds: xr.Dataset, src: str, settings: StudySettings) -> dict[str, np.ndarray]:
+def native_samples(ds: xr.Dataset, src: str, settings: StudySettings) -> dict[str, np.ndarray]:
+    """The samples of one contact run that the study uses: its initial loading branch, checked.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        A contact dataset (docs/data_contracts.md "Contact dataset", :func:`tyreroad.contact.contact_dataset`).
+    src : str
+        The run's name in error messages (its file).
+    settings : StudySettings
+        The study settings (d_max and the common grid).
+
+    Returns
+    -------
+    dict
+        ``indentation`` [m], ``force`` and ``backing_force`` [N], ``contact_fraction`` [1],
+        ``stiffness`` and ``backing_stiffness`` at the native samples [N/m] (the stored tangent of a
+        quasi-static run, else second-order differences), ``from_tangent`` (0, 1, or 2 when the
+        backing force is the surface force), optionally ``grid_contact_fraction`` (on the grid),
+        ``n_elements`` and ``run_samples``.
+
+    Raises
+    ------
+    ValueError
+        Naming ``src`` for a missing variable, non-finite values, fewer than 3 loading samples, or
+        a run that does not cover 0 ... d_max.
+    """
     for name in ("indentation", "force", "backing_force", "contact_count"):
         if name not in ds.variables:
             raise ValueError(f"{src}: contact dataset lacks the variable {name!r}")
@@ -534,6 +561,43 @@ def _native(ds: xr.Dataset, src: str, settings: StudySettings) -> dict[str, np.n
     out["n_elements"] = np.array(n_elements)
     out["run_samples"] = np.array(n_run)
     return out
+
+
+def case_on_grid(run: Mapping[str, np.ndarray], settings: StudySettings) -> dict[str, np.ndarray]:
+    """One run on the common grid: the study's K(d), F(d) and contact fraction.
+
+    Linear interpolation of the native samples (:func:`interp_on_grid`); for a run with a stored
+    tangent, F and K (and the backing force when it is the surface force) through the cubic Hermite
+    interpolant (:func:`hermite_on_grid`) and the contact fraction counted between the states.
+
+    Parameters
+    ----------
+    run : mapping
+        From :func:`native_samples`.
+    settings : StudySettings
+        The study settings (the common grid).
+
+    Returns
+    -------
+    dict
+        ``force`` [N], ``stiffness`` [N/m], ``contact_fraction`` [1], ``backing_force`` [N] and
+        ``backing_stiffness`` [N/m] on ``settings.grid`` (NaN outside the run).
+    """
+    grid = settings.grid
+    d = run["indentation"]
+    out = {name: interp_on_grid(grid, d, run[name]) for name in _GRID_VARIABLES}
+    tangent = int(run["from_tangent"])
+    if tangent:
+        pairs = [("force", "stiffness")] + ([("backing_force", "backing_stiffness")] if tangent == 2 else [])
+        for f_name, k_name in pairs:
+            out[f_name], out[k_name] = hermite_on_grid(grid, d, run[f_name], run[k_name])
+        if "grid_contact_fraction" in run:
+            out["contact_fraction"] = run["grid_contact_fraction"]
+    return out
+
+
+#: The variables of a run on the common grid (:func:`case_on_grid`).
+_GRID_VARIABLES = ("force", "stiffness", "contact_fraction", "backing_force", "backing_stiffness")
 
 
 def _count_between_states(grid: np.ndarray, d: np.ndarray, zeta: np.ndarray) -> np.ndarray:
@@ -613,7 +677,7 @@ def aggregate(contacts: Iterable[xr.Dataset | str | Path], settings: StudySettin
         key = _run_key(ds, src, settings)
         if key in runs:
             raise ValueError(f"{src}: duplicate run for case {case_label(*key)!r}")
-        runs[key] = _native(ds, src, settings)
+        runs[key] = native_samples(ds, src, settings)
         runs[key]["source"] = np.array(src)
     expected = expected_cases(settings)
     missing = [case_label(*k) for k in expected if k not in runs]
@@ -626,8 +690,7 @@ def aggregate(contacts: Iterable[xr.Dataset | str | Path], settings: StudySettin
     grid = settings.grid
     n_case = len(expected)
     n_sample = max(runs[k]["indentation"].size for k in expected)
-    grid_vars = {name: np.full((n_case, grid.size), np.nan) for name in
-                 ("force", "stiffness", "contact_fraction", "backing_force", "backing_stiffness")}
+    grid_vars = {name: np.full((n_case, grid.size), np.nan) for name in _GRID_VARIABLES}
     native_vars = {name: np.full((n_case, n_sample), np.nan) for name in
                    ("indentation", "force", "stiffness", "backing_force", "contact_fraction")}
     k_sat = np.empty(n_case)
@@ -638,16 +701,9 @@ def aggregate(contacts: Iterable[xr.Dataset | str | Path], settings: StudySettin
     for c, key in enumerate(expected):
         run = runs[key]
         d = run["indentation"]
-        for name in grid_vars:
-            grid_vars[name][c] = interp_on_grid(grid, d, run[name])
-        tangent = int(run["from_tangent"])
-        from_tangent[c] = tangent > 0
-        if tangent:
-            pairs = [("force", "stiffness")] + ([("backing_force", "backing_stiffness")] if tangent == 2 else [])
-            for f_name, k_name in pairs:
-                grid_vars[f_name][c], grid_vars[k_name][c] = hermite_on_grid(grid, d, run[f_name], run[k_name])
-            if "grid_contact_fraction" in run:
-                grid_vars["contact_fraction"][c] = run["grid_contact_fraction"]
+        for name, values in case_on_grid(run, settings).items():
+            grid_vars[name][c] = values
+        from_tangent[c] = int(run["from_tangent"]) > 0
         for name in native_vars:
             native_vars[name][c, : d.size] = run[name]
         n_native[c] = d.size

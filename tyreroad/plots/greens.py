@@ -14,8 +14,9 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+from matplotlib.lines import Line2D  # noqa: E402
 
-from tyreroad.io import atomic_path  # noqa: E402
+from ..io import atomic_path  # noqa: E402
 
 logger = logging.getLogger(__name__)
 
@@ -94,8 +95,6 @@ def plot_materials(datasets: list, path) -> Path:
     -------
     pathlib.Path
     """
-    from matplotlib.lines import Line2D
-
     _check(datasets, _REQUIRED_MATERIAL, "plot_materials")
     fig, (ax_e, ax_eta) = plt.subplots(1, 2, figsize=(11, 4.6), constrained_layout=True)
     handles = []

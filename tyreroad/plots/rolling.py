@@ -19,6 +19,9 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import xarray as xr  # noqa: E402
 
+from .. import io  # noqa: E402
+from ..report.claims import THRESHOLDS  # noqa: E402
+
 __all__ = ["plot_rolling_figures", "ROLLING_FIGURES"]
 
 #: File stems of the rolling figures, in the order of ``outputs``.
@@ -108,7 +111,7 @@ def plot_loss(study: xr.Dataset, path) -> None:
         coef = study["rolling_loss_coefficient"].values[idx][order]
         line, = ax.plot(v[order], coef, marker="o", label=material)
         if "chatter" in study:  # cases whose time march chattered at fs/2 (not trustworthy): crossed out
-            bad = study["chatter"].values[idx][order] > 0.05
+            bad = study["chatter"].values[idx][order] > THRESHOLDS["rolling_chatter_max"]
             ax.plot(v[order][bad], coef[bad], ls="none", marker="x", ms=12, color="k",
                     label=f"{material}: fs/2 chatter, not trustworthy" if bad.any() else None)
     ax.axhspan(1e-3, 1e-2, color="0.9", zorder=0, label="tread hysteresis, typical")
@@ -159,8 +162,6 @@ def plot_contact_map(runs: Sequence[xr.Dataset], path) -> None:
 
 def plot_rolling_figures(study: xr.Dataset, map_runs: Sequence[xr.Dataset], outputs: Sequence[str]) -> None:
     """Write figures 11-14 to ``outputs`` (in the order of :data:`ROLLING_FIGURES`)."""
-    from tyreroad import io
-
     writers = [lambda p: plot_force(study, p), lambda p: plot_spectra(study, p), lambda p: plot_loss(study, p),
                lambda p: plot_contact_map(map_runs, p)]
     for write, out in zip(writers, outputs):

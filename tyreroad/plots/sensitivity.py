@@ -19,7 +19,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import xarray as xr  # noqa: E402
 
-from ..report import THRESHOLDS  # noqa: E402
+from ..report.claims import THRESHOLDS  # noqa: E402
 
 logger = logging.getLogger(__name__)
 

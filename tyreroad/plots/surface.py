@@ -5,8 +5,12 @@ from __future__ import annotations
 import logging
 from pathlib import Path
 
-import numpy as np
-import xarray as xr
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import xarray as xr  # noqa: E402
 
 logger = logging.getLogger(__name__)
 
@@ -34,11 +38,6 @@ def plot_patch(ds: xr.Dataset, path: str | Path, depth: float = 0.15e-3) -> Path
     pathlib.Path
         The written file.
     """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     x_mm = ds["x"].values * 1e3

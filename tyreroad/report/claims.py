@@ -1,4 +1,4 @@
-"""The claims report ``results/report.md`` (SPEC section 7).
+"""The claims of ``results/report.md`` (SPEC section 7): thresholds, measurements and the registry.
 
 Each of the ten claims of the seed paper is turned into a test with an explicit threshold: one small
 function per claim, registered by number in :data:`CLAIMS`, takes a :class:`ClaimContext` (the study
@@ -44,6 +44,16 @@ The thresholds (module constants below) and why they were chosen:
    pointwise difference for d >= 0.05 mm is <= 5 % of K_sat. A QS run with a stored tangent (coarse
    QS grid) is resampled through the cubic Hermite interpolant of (d, F, dF/dd), as the study does.
 10. Backing force gives equivalent results: for every case, |K_sat(backing)/K_sat(surface) - 1| <= 2 %.
+
+The registry is the one place a verdict is decided: the report's table and the sensitivity sweep
+(:mod:`tyreroad.sensitivity`) both call the functions of :data:`CLAIMS`.
+
+:data:`THRESHOLDS` also holds the limits of the rolling section (:func:`tyreroad.report.rolling_section`):
+a dynamic rolling case whose fs/2 chatter measure exceeds ``rolling_chatter_max`` is flagged as not
+trustworthy (the force alternates from step to step: a numerical instability of the time march, not
+physics), and the dynamic rolling-loss coefficients are called sensible inside
+[``rolling_coefficient_lo``, ``rolling_coefficient_hi``], a decade around either end of the expected
+tread-hysteresis range of 1e-3 to 1e-2 (a check for gross errors, not a claim).
 """
 
 from __future__ import annotations
@@ -51,16 +61,13 @@ from __future__ import annotations
 import logging
 import math
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 import xarray as xr
-import yaml
 from scipy.signal import savgol_filter
 
-from . import io
-from .study import (
+from ..study import (
     StudySettings,
     case_label,
     contact_stiffness,
@@ -74,21 +81,24 @@ logger = logging.getLogger(__name__)
 
 __all__ = [
     "THRESHOLDS",
+    "HOLDS",
+    "DIRECTION_OPPOSITE",
+    "FAILS",
+    "NOT_EVALUATED",
     "VERDICTS",
     "ClaimResult",
     "ClaimContext",
     "CLAIMS",
     "evaluate_claims",
+    "evaluate_context",
     "loss_direction_verdict",
     "saturation_change",
     "ripple",
     "count_growth_peak",
     "quasistatic_resampling_check",
-    "build_report",
-    "write_report",
 ]
 
-#: Thresholds of the claim tests (SI units); see the module docstring for the reasoning.
+#: Thresholds of the claim tests and of the rolling section (SI units); see the module docstring for the reasoning.
 THRESHOLDS: dict[str, float] = {
     "c1_d_min": 0.05e-3,  # m
     "c3_rms_max": 0.05,  # 1
@@ -110,6 +120,9 @@ THRESHOLDS: dict[str, float] = {
     "c9_pointwise_rel_max": 0.05,
     "c9_d_min": 0.05e-3,  # m
     "c10_rel_max": 0.02,
+    "rolling_chatter_max": 0.05,  # 1
+    "rolling_coefficient_lo": 1e-4,  # 1
+    "rolling_coefficient_hi": 5e-2,  # 1
 }
 
 _MN = 1e-6  # N/m -> MN/m
@@ -292,7 +305,8 @@ class ClaimContext:
         ``{"loss": [[scale, name], ...], "density": [[scale, name], ...]}`` (see
         :func:`tyreroad.study.variant_members`).
     thresholds : mapping, optional
-        Thresholds of the claim tests; default :data:`THRESHOLDS`.
+        Thresholds of the claim tests: overrides of :data:`THRESHOLDS` (the keys not given keep
+        their default).
     """
 
     def __init__(self, study: xr.Dataset, settings: StudySettings, variants: Mapping[str, Any],
@@ -300,7 +314,7 @@ class ClaimContext:
         self.study = study
         self.settings = settings
         self.variants = variants
-        self.t = dict(THRESHOLDS if thresholds is None else thresholds)
+        self.t = {**THRESHOLDS, **dict(thresholds or {})}
         self.ref = settings.reference_material
         self.accels = sorted(settings.accelerations)
         self.a_ref = self.accels[-1]
@@ -627,7 +641,8 @@ def claim_backing(c: ClaimContext) -> ClaimResult:
     )
 
 
-def evaluate_claims(study: xr.Dataset, settings: StudySettings, variants: Mapping[str, Any]) -> list[ClaimResult]:
+def evaluate_claims(study: xr.Dataset, settings: StudySettings, variants: Mapping[str, Any],
+                    thresholds: Mapping[str, float] | None = None) -> list[ClaimResult]:
     """Evaluate the seed claims of :data:`CLAIMS` on a study dataset (tests: see the module docstring).
 
     Parameters
@@ -639,504 +654,20 @@ def evaluate_claims(study: xr.Dataset, settings: StudySettings, variants: Mappin
     variants : mapping
         ``{"loss": [[scale, name], ...], "density": [[scale, name], ...]}`` (see
         :func:`tyreroad.study.variant_members`).
+    thresholds : mapping, optional
+        Overrides of :data:`THRESHOLDS`.
 
     Returns
     -------
     list of ClaimResult
         One per registered claim, by number (claims 1-10).
     """
-    ctx = ClaimContext(study, settings, variants)
+    return evaluate_context(ClaimContext(study, settings, variants, thresholds))
+
+
+def evaluate_context(ctx: ClaimContext) -> list[ClaimResult]:
+    """Every claim of :data:`CLAIMS` on one :class:`ClaimContext`, by number (logged)."""
     results = [CLAIMS[n](ctx) for n in sorted(CLAIMS)]
     for r in results:
         logger.info("claim %d: %s (%s)", r.number, r.verdict, r.measured)
     return results
-
-
-# --------------------------------------------------------------------------------------------------
-# markdown
-# --------------------------------------------------------------------------------------------------
-def _greens_by_material(greens: Mapping[str, xr.Dataset] | Sequence[xr.Dataset] | None) -> dict[str, xr.Dataset]:
-    if greens is None:
-        return {}
-    if isinstance(greens, Mapping):
-        return dict(greens)
-    out = {}
-    for i, ds in enumerate(greens):
-        if "material" not in ds.attrs:
-            raise ValueError(f"Green's dataset #{i} has no 'material' attribute; pass a mapping material -> dataset")
-        out[str(ds.attrs["material"])] = ds
-    return out
-
-
-def _material_config(ds: xr.Dataset, name: str) -> dict:
-    """The resolved material preset recorded in a Green's file's provenance (empty if absent)."""
-    try:
-        cfg = yaml.safe_load(ds.attrs.get("config", "")) or {}
-        return dict(cfg.get("material", {}).get(name, {}))
-    except (yaml.YAMLError, AttributeError, TypeError):
-        return {}
-
-
-def _surface_section(surface: xr.Dataset) -> list[str]:
-    need = ("mpd", "rms_height", "skewness", "peak_fraction_within", "z1")
-    missing = [n for n in need if n not in surface.variables]
-    if missing:
-        raise ValueError(f"surface dataset lacks {', '.join(missing)} (docs/data_contracts.md 'Surface dataset')")
-    lines = [
-        f"## Road surface `{surface.attrs.get('surface', '?')}`",
-        "",
-        "| quantity | value |",
-        "|---|---|",
-        f"| MPD (whole field, ISO 13473-1) | {float(surface['mpd']) * _MM:.3f} mm |",
-        f"| rms height | {float(surface['rms_height']) * 1e6:.1f} µm |",
-        f"| skewness | {float(surface['skewness']):+.3f} |",
-        f"| patch elements | {surface.sizes['ex']} × {surface.sizes['ey']} |",
-    ]
-    if "element_size" in surface.attrs:
-        lines.append(f"| element size | {float(surface.attrs['element_size']) * _MM:g} mm |")
-    depth_dim = surface["peak_fraction_within"].dims[0]
-    for depth, frac in zip(surface[depth_dim].values, surface["peak_fraction_within"].values):
-        lines.append(f"| element peaks within {float(depth) * _MM:.2f} mm of the top | {100 * float(frac):.1f} % |")
-    return lines + [""]
-
-
-def _material_section(greens: dict[str, xr.Dataset], materials: Sequence[str], variants: Mapping[str, Any], ref: str,
-                      run_note: str = "") -> list[str]:
-    scale = {m: ("", "") for m in materials}
-    for kind, col in (("loss", 0), ("density", 1)):
-        for s, m in variant_members(variants, kind, materials, ref):
-            cur = list(scale[m])
-            cur[col] = f"{s:g}"
-            scale[m] = tuple(cur)
-    freqs = (100.0, 1000.0, 10000.0)
-    lines = [
-        "## Materials",
-        "",
-        "| material | η scale | ρ scale | ρ [kg/m³] | ν | h [mm] | "
-        + " | ".join(f"E′ / η at {f:g} Hz" for f in freqs)
-        + " | kept g(0) fraction | precursor energy |",
-        "|---|---|---|---|---|---|" + "---|" * len(freqs) + "---|---|",
-    ]
-    for m in materials:
-        ds = greens.get(m)
-        cells = [m, scale[m][0] or "—", scale[m][1] or "—"]
-        if ds is None:
-            cells += ["—"] * (3 + len(freqs) + 2)
-        else:
-            cfg = _material_config(ds, m)
-            cells += [
-                f"{float(cfg['density']):g}" if "density" in cfg else "—",
-                f"{float(cfg['poisson_ratio']):g}" if "poisson_ratio" in cfg else "—",
-                f"{float(cfg['thickness']) * _MM:g}" if "thickness" in cfg else "—",
-            ]
-            f = ds["frequency"].values
-            for fr in freqs:
-                if f[0] <= fr <= f[-1]:
-                    e = np.interp(fr, f, ds["storage_modulus"].values)
-                    eta = np.interp(fr, f, ds["loss_factor"].values)
-                    cells.append(f"{e * 1e-6:.1f} MPa / {eta:.3f}")
-                else:
-                    cells.append("outside band")
-            cells.append(f"{float(ds['kept_fraction']):.4f}" if "kept_fraction" in ds else "—")
-            cells.append(f"{float(ds['precursor_energy_fraction']):.2e}" if "precursor_energy_fraction" in ds else "—")
-        lines.append("| " + " | ".join(cells) + " |")
-    lines += [
-        "",
-        "- *kept g(0) fraction*: share of the static compliance g(ω = 0) at the excitation element that the "
-        "kept time lags of the kernel hold (the rest is slow creep beyond the kernel's memory)"
-        + (f"; {run_note}." if run_note else "."),
-        "- *precursor energy*: energy of the discarded non-causal part of the inverse FFT (samples at "
-        "negative time) over the kernel's total energy; small means the time-domain kernel is causal.",
-    ]
-    return lines + [""]
-
-
-def _stiffness_at(ds: xr.Dataset, preload_index: int, freq: float) -> tuple[float, float] | None:
-    """(K' [N/m], loss factor [1]) of a stiffness spectrum at ``freq`` [Hz]: the grid value when the
-    frequency is on the grid, else None (the stage inserts the report frequencies into its grid)."""
-    f = ds["frequency"].values
-    j = int(np.argmin(np.abs(f - freq)))
-    if not np.isclose(f[j], freq, rtol=1e-9, atol=0):
-        return None
-    sel = ds.isel(preload=preload_index, frequency=j)
-    return float(sel["storage_stiffness"]), float(sel["loss_factor"])
-
-
-def _spectrum_row(ds: xr.Dataset, p: int, freqs: Sequence[float]) -> list[str]:
-    k_qs = float(ds["tangent_stiffness_qs"][p])
-    cells = []
-    for fr in freqs:
-        v = _stiffness_at(ds, p, fr)
-        cells.append("—" if v is None else f"{v[0] * _MN:.3f} / {v[1]:.3f}")
-    at_1k = _stiffness_at(ds, p, 1000.0)
-    cells.append("—" if at_1k is None else f"{at_1k[0] / k_qs:.3f}")
-    return cells
-
-
-def _stiffness_spectrum_section(spectra: Sequence[xr.Dataset], reference: str, variants: Mapping[str, Any],
-                                materials: Sequence[str]) -> list[str]:
-    """Report section on K*(f; d0): K' and the loss factor at the report frequencies per preload."""
-    by = {str(ds.attrs.get("material")): ds for ds in spectra}
-    if reference not in by:
-        return []
-    ref = by[reference]
-    freqs = [float(f) for f in np.atleast_1d(ref.attrs.get("report_frequencies", (100.0, 1000.0, 5000.0)))]
-    head = " | ".join(f"K′ [MN/m] / η at {f:g} Hz" for f in freqs)
-    f_lo = float(ref["frequency"].values[0])
-    lines = [
-        "## Dynamic contact stiffness K*(f; d0)",
-        "",
-        "The contact spring a tyre/road model needs, per preload d0: the complex contact stiffness "
-        "K* = 1ᵀ[G_C(f) + diag(1/k_e)]⁻¹1 of the contact linearised about the **relaxed preload state** (the "
-        "quasi-static solution at d0 with the quasi-static modulus: a tread held at d0 until it has relaxed, "
-        "which takes seconds and more for the default fractional tread), with the element FRF g(f) of the layer "
-        "over the contact set C and the tangent spring stiffnesses k_e (SPEC 11; exp(+iωt), F̂ = K* δ̂). "
-        f"Files: `results/stiffness_spectrum/{{surface}}/{{material}}.nc` ({ref.sizes['frequency']} frequencies "
-        f"from {f_lo:g} Hz to {float(ref['frequency'].values[-1]):g} Hz), figure "
-        "`results/figures/fig9_stiffness_spectrum.png`. K′ = Re K*, η = Im K*/Re K*, K_qs = dF/dd of the "
-        "quasi-static curve at d0.",
-        "",
-        f"Reference material `{reference}`:",
-        "",
-        f"| d0 [mm] | in contact | F(d0) [N] | K_qs [MN/m] | K*(f→0)/K_qs − 1 | K′({f_lo:g} Hz)/K_qs | {head} "
-        "| K′(1 kHz)/K_qs |",
-        "|---|---|---|---|---|---|" + "---|" * len(freqs) + "---|",
-    ]
-    for p, d0 in enumerate(ref["preload"].values):
-        k_qs = float(ref["tangent_stiffness_qs"][p])
-        lines.append(
-            f"| {d0 * _MM:.3g} | {100 * float(ref['contact_fraction'][p]):.1f} % | {float(ref['preload_force'][p]):.1f} "
-            f"| {k_qs * _MN:.3f} | {float(ref['relaxed_stiffness'][p]) / k_qs - 1:+.1e} "
-            f"| {float(ref['storage_stiffness'][p, 0]) / k_qs:.3f} | " + " | ".join(_spectrum_row(ref, p, freqs)) + " |"
-        )
-    fig_preload = float(ref.attrs.get("figure_preload", ref["preload"].values[(ref.sizes["preload"] - 1) // 2]))
-    others = [m for m in materials if m in by]
-    lines += [
-        "",
-        f"All materials at d0 = {fig_preload * _MM:g} mm:",
-        "",
-        f"| material | K_qs [MN/m] | {head} | K′(1 kHz)/K_qs |",
-        "|---|---|" + "---|" * len(freqs) + "---|",
-    ]
-    for m in others:
-        ds = by[m]
-        pre = ds["preload"].values
-        p = int(np.argmin(np.abs(pre - fig_preload)))
-        if not np.isclose(pre[p], fig_preload, rtol=1e-9, atol=0):
-            continue
-        lines.append(f"| {m} | {float(ds['tangent_stiffness_qs'][p]) * _MN:.3f} | "
-                     + " | ".join(_spectrum_row(ds, p, freqs)) + " |")
-    loss_min = min(float(by[m]["loss_stiffness"].min()) for m in others)
-    limit = max(abs(float(by[m]["relaxed_stiffness"][p] / by[m]["tangent_stiffness_qs"][p] - 1))
-                for m in others for p in range(by[m].sizes["preload"]))
-    lines += [
-        "",
-        f"- f → 0: K*(f → 0) (element FRF at f = 0, modulus E(ω → 0)) equals K_qs to {limit:.1e} at every preload "
-        f"and material. At {f_lo:g} Hz the contact is still stiffer than that: the tread's modulus keeps relaxing "
-        "well below 10 Hz.",
-        f"- Passivity: the smallest loss stiffness K″ over every material, preload and frequency is "
-        f"{loss_min * _MN:.4f} MN/m ({'≥ 0' if loss_min >= 0 else 'NEGATIVE'}).",
-        "- Reading it: `xarray.open_dataset(path).storage_stiffness.sel(preload=1e-4, frequency=1000)`; "
-        "see the README (\"contact spring for your model\").",
-        "",
-    ]
-    return lines
-
-
-def _storage_change(greens: dict[str, xr.Dataset], material: str, reference: str, freq: float) -> float | None:
-    """E'(material) / E'(reference) - 1 at ``freq`` [Hz] from the Green's datasets (None if unavailable)."""
-    if material not in greens or reference not in greens:
-        return None
-    out = []
-    for name in (material, reference):
-        ds = greens[name]
-        f = ds["frequency"].values
-        if not (f[0] <= freq <= f[-1]):
-            return None
-        out.append(float(np.interp(freq, f, ds["storage_modulus"].values)))
-    return out[0] / out[1] - 1.0
-
-
-def _loss_factor_at(greens: dict[str, xr.Dataset], material: str, freq: float) -> float | None:
-    ds = greens.get(material)
-    if ds is None:
-        return None
-    f = ds["frequency"].values
-    return float(np.interp(freq, f, ds["loss_factor"].values)) if f[0] <= freq <= f[-1] else None
-
-
-def _decides_section(claims: Mapping[int, ClaimResult], study: xr.Dataset, settings: StudySettings,
-                     variants: Mapping[str, Any], greens: dict[str, xr.Dataset]) -> list[str]:
-    """"What decides claims 5-7": the mechanism behind each verdict, from the study's own numbers."""
-    ref = settings.reference_material
-    lo, hi = settings.saturation_range
-    lines = ["## What decides claims 5–7", ""]
-    c5 = claims.get(5)
-    if c5 is not None:
-        v = c5.values
-        fr = v["fraction_saturation_range"]
-        limit = THRESHOLDS["c5_change_max"]
-        text = (
-            f"- **Claim 5 ({c5.verdict}).** {100 * v['fraction']:.0f} % of the elements are in contact at "
-            f"0.15 mm (seed ≈ 50 %). K changes by {100 * v['change']:.1f} % over the saturation range "
-            f"(limit {100 * limit:g} %); the contact fraction goes {fr[0]:.3f} → {fr[1]:.3f} between "
-            f"{lo * _MM:g} and {hi * _MM:g} mm. "
-        )
-        if v["change"] > limit:
-            text += ("K keeps rising because elements still come into contact there, each adding a spring in "
-                     "parallel: a flatter K needs a surface whose element peaks lie within about 0.15 mm of the "
-                     "top (few new contacts beyond it).")
-        else:
-            text += "Few new contacts beyond 0.18 mm: K saturates."
-        lines.append(text)
-    c6 = claims.get(6)
-    if c6 is not None and c6.values.get("delta"):
-        parts = []
-        agree = []
-        names = dict(variant_members(variants, "loss", settings.materials, ref))
-        for scale, delta in c6.values["delta"].items():
-            name = names.get(scale)
-            e1 = _storage_change(greens, name, ref, 1000.0) if name else None
-            e10 = _storage_change(greens, name, ref, 10000.0) if name else None
-            if e1 is not None and e10 is not None:
-                parts.append(f"η×{scale:g}: E′ {_pct(e1)} at 1 kHz, {_pct(e10)} at 10 kHz, K_sat {_pct(delta)}")
-                agree.append(np.sign(delta) == np.sign(e1))
-        text = (
-            f"- **Claim 6 ({c6.verdict}).** The seed's loss variants keep |E| and scale η (SPEC 5), so the "
-            "storage modulus E′ = |E|/√(1 + s²η²) falls where η rises, while the loss modulus E″ rises."
-        )
-        if parts:
-            text += " Here: " + "; ".join(parts) + "."
-            if all(agree):
-                text += (" K_sat moves with E′: the lower storage modulus outweighs the added loss modulus. "
-                         "The seed's direction (higher η → stiffer) would need a material whose added E″ in the "
-                         "loading's frequency band stiffens the contact more than the lower E′ softens it.")
-            else:
-                text += " K_sat does not follow E′ for every variant: the added loss modulus counts as much."
-        folded = {n: int(float(ds.attrs.get("precursor_folded", 0))) for n, ds in greens.items()}
-        pre = {n: float(ds["precursor_sum_fraction"]) for n, ds in greens.items() if "precursor_sum_fraction" in ds}
-        loss_names = [n for _, n in variant_members(variants, "loss", settings.materials, ref) if n != ref]
-        if pre and all(n in pre for n in loss_names) and ref in pre:
-            text += (
-                " Scaling η at constant |E| breaks the Kramers–Kronig relations: the variants are not causal, and "
-                "their band-limited kernels carry a negative-time response of their own ("
-                + ", ".join(f"{n}: {_pct(pre[n])} of g(0)" for n in loss_names)
-                + f"; the causal reference's is only its band-limit ringing, {_pct(pre[ref])}). "
-                + ("The greens stage puts the reference's ringing back on its first lags (causal correction) and "
-                   "discards the variants' own non-causal response, as the seed's kernel does. "
-                   if folded.get(ref) and not any(folded.get(n) for n in loss_names) else "")
-                + "The direction of this claim depends on that choice: folding the variants' non-causal sums onto "
-                "lag 0 as well reverses it (docs/long_memory.md records that experiment)."
-            )
-        lines.append(text)
-    c7 = claims.get(7)
-    if c7 is not None and c7.values.get("ripple"):
-        rip = c7.values["ripple"]
-        eta10 = _loss_factor_at(greens, ref, 10000.0)
-        text = (
-            f"- **Claim 7 ({c7.verdict}).** The ripple of K for d ≤ {THRESHOLDS['c7_ripple_d_max'] * _MM:g} mm is "
-            + ", ".join(f"ρ×{s:g}: {v:.1e} K_sat" for s, v in sorted(rip.items()))
-            + f" (ratio {c7.values['ripple_ratio']:.2f}; the test asks ≥ {THRESHOLDS['c7_ripple_ratio_min']:g}). "
-            "Inertia ripples are layer oscillations excited as elements come into contact."
-        )
-        rip_qs = c7.values.get("ripple_quasistatic", math.nan)
-        if math.isfinite(rip_qs) and rip.get(1.0, 0) > 0:
-            text += (f" The quasi-static run, which has no inertia at all, has a ripple of {rip_qs:.1e} K_sat "
-                     f"({rip_qs / rip[1.0]:.2f} × the dynamic reference's): ")
-            text += ("most of the measured ripple comes from elements entering contact one by one (the surface), "
-                     "which the density does not change." if rip_qs / rip[1.0] >= 0.5 else
-                     "the dynamic ripple is mostly the layer's inertia.")
-        if eta10 is not None:
-            text += (f" With η = {eta10:.2f} at 10 kHz an oscillation keeps a factor e^(−πη) = "
-                     f"{math.exp(-math.pi * eta10):.2f} of its amplitude per period, whatever the density.")
-        if c7.values["ripple_ratio"] < THRESHOLDS["c7_ripple_ratio_min"]:
-            text += " Whether another stand-in material or surface gives ripples that grow with the density is what the sensitivity sweep measures."
-        lines.append(text)
-    lines += [
-        "",
-        "Which stand-in material or surface would change these verdicts is the question of the sensitivity "
-        "sweep: `snakemake -j2 sensitivity` writes `results/sensitivity.md` (table and conclusion), "
-        "`results/sensitivity.nc` and `results/figures/sensitivity.png`.",
-        "",
-    ]
-    return lines
-
-
-def _equivalent_section(study: xr.Dataset, settings: StudySettings) -> list[str]:
-    """Equivalent quasi-static stiffness s(a) per material and its misfit (from ``study.nc``)."""
-    if "equivalent_modulus_scale" not in study:
-        return []
-    rng = np.atleast_1d(study.attrs.get("equivalent_range_m", [np.nan, np.nan]))
-    ref = settings.reference_material
-    accels = sorted(settings.accelerations)
-    materials = [str(m) for m in dict.fromkeys(study["material"].values.astype(str))]
-
-    def cell(material, a):
-        c = study.study.sel_case(material=material, mode="dynamic", accel=a)
-        return float(c["equivalent_modulus_scale"]), float(c["equivalent_misfit"])
-
-    ref_vals = [cell(ref, a) for a in accels]
-    worst = max(m for _, m in ref_vals)
-    lines = [
-        "## Equivalent quasi-static stiffness",
-        "",
-        "The seed's practical conclusion: inertia and damping can be approximated by a stiffer quasi-static "
-        "model tuned per acceleration. The quasi-static force scales exactly with a common modulus factor s "
-        f"of layer and springs, so s(a) is the least-squares fit of K_dyn(d) by s·K_QS(d) over "
-        f"{rng[0] * _MM:g}–{rng[-1] * _MM:g} mm; the misfit is RMS(K_dyn − s·K_QS) / RMS(K_dyn) "
-        "(`equivalent_modulus_scale`, `equivalent_misfit` in results/study.nc).",
-        "",
-        f"Reference material `{ref}`: "
-        + ", ".join(f"s({a:g} m/s²) = {s_:.3f} (misfit {100 * m:.2f} %)" for a, (s_, m) in zip(accels, ref_vals))
-        + f". The approximation reproduces K(d) to within {100 * worst:.1f} % RMS; what it leaves is the "
-        "shape: K_dyn/K_QS is not constant in d.",
-        "",
-        "| material | " + " | ".join(f"s({a:g}) / misfit" for a in accels) + " |",
-        "|---|" + "---|" * len(accels),
-    ]
-    for m in materials:
-        lines.append(f"| {m} | " + " | ".join(f"{s_:.3f} / {100 * mf:.2f} %" for s_, mf in (cell(m, a) for a in accels)) + " |")
-    return lines + [""]
-
-
-def _cases_section(study: xr.Dataset) -> list[str]:
-    d = study["indentation"].values
-    lines = [
-        "## Cases",
-        "",
-        "| case | K_sat [MN/m] | K_sat from backing force [MN/m] | contact fraction at 0.15 mm | F at d_max [N] |",
-        "|---|---|---|---|---|",
-    ]
-    for i, label in enumerate(study["case"].values.astype(str)):
-        c = study.isel(case=i)
-        frac = c["contact_fraction"].values
-        ok = np.isfinite(frac)
-        f = c["force"].values
-        lines.append(
-            f"| {label} | {float(c['saturated_stiffness']) * _MN:.4f} | "
-            f"{float(c['saturated_backing_stiffness']) * _MN:.4f} | "
-            f"{np.interp(0.15e-3, d[ok], frac[ok]):.3f} | {f[np.isfinite(f)][-1]:.2f} |"
-        )
-    return lines + [""]
-
-
-def build_report(
-    study: xr.Dataset,
-    surface: xr.Dataset | None,
-    greens: Mapping[str, xr.Dataset] | Sequence[xr.Dataset] | None,
-    settings: StudySettings,
-    variants: Mapping[str, Any],
-    config: Mapping[str, Any] | None = None,
-    spectra: Sequence[xr.Dataset] | None = None,
-    extra_sections: Sequence[Sequence[str]] = (),
-) -> str:
-    """The markdown text of ``results/report.md``.
-
-    Parameters
-    ----------
-    study : xarray.Dataset
-        The study dataset.
-    surface : xarray.Dataset or None
-        The study's surface dataset (texture statistics section); None omits the section.
-    greens : mapping or sequence of xarray.Dataset, or None
-        Green's datasets per material (material summary); a sequence is keyed by each dataset's
-        ``material`` attribute.
-    settings : StudySettings
-        The study settings.
-    variants : mapping
-        Loss and density variant groups (:func:`tyreroad.study.variant_members`).
-    config : mapping, optional
-        The config that made the report (its hash is printed); default: the study settings and
-        the variants.
-    spectra : sequence of xarray.Dataset, optional
-        Stiffness-spectrum datasets of the study materials (:mod:`tyreroad.stiffness`): the section
-        on K*(f; d0); None omits it.
-    extra_sections : sequence of list of str
-        Further markdown sections (e.g. :func:`tyreroad.hysteresis.hysteresis_section`), placed
-        before the config.
-
-    Returns
-    -------
-    str
-        Markdown.
-    """
-    claims = evaluate_claims(study, settings, variants)
-    if config is None:
-        config = {
-            "study": {
-                "surface": settings.surface,
-                "reference_material": settings.reference_material,
-                "materials": list(settings.materials),
-                "accelerations": list(settings.accelerations),
-                "indentation_step": settings.indentation_step,
-                "saturation_range": list(settings.saturation_range),
-            },
-            "d_max": settings.d_max,
-            "variants": {k: [list(m) for m in v] for k, v in variants.items()},
-        }
-    n_hold = sum(c.verdict == HOLDS for c in claims)
-    n_eval = sum(c.verdict != NOT_EVALUATED for c in claims)
-    n_opposite = sum(c.verdict == DIRECTION_OPPOSITE for c in claims)
-    a_ref = max(settings.accelerations)
-    summary = f"{n_hold} of {n_eval} evaluated hold"
-    if n_opposite:
-        summary += f", {n_opposite} hold{'s' if n_opposite == 1 else ''} in size with the opposite direction"
-    lines = [
-        "# tyreroad: claims of Winroth, Andersson & Kropp (JSV 2014) checked",
-        "",
-        f"- tyreroad version: {io.code_version()} (study file made by "
-        f"{study.attrs.get('tyreroad_version', 'unknown')})",
-        f"- report config SHA-256: `{io.config_hash(config)}` — hash of the config this report was made "
-        "from (the `study` section and the variant groups, printed at the end)",
-        f"- study file config SHA-256: `{study.attrs.get('config_sha256', 'not recorded')}` — hash recorded "
-        "in results/study.nc of the config that made it (`study` section and `d_max`); the two hash "
-        "different sections, so they differ; each changes when its own config changes",
-        f"- surface `{settings.surface}`, reference material `{settings.reference_material}`, "
-        f"reference case: dynamic at a = {a_ref:g} m/s², d_max = {settings.d_max * _MM:g} mm",
-        f"- K = dF/dd by second-order differences on each run's native samples, then linear interpolation "
-        f"onto a {settings.indentation_step * 1e6:g} µm grid"
-        + ("; quasi-static runs: the tangent dF/dd of each solved state, F and K by cubic Hermite "
-           "interpolation" if "stiffness_from_tangent" in study and int(study["stiffness_from_tangent"].sum()) else "")
-        + "; K_sat = median K over "
-        f"[{settings.saturation_range[0] * _MM:g}, {settings.saturation_range[1] * _MM:g}] mm",
-        "",
-        f"## Seed claims: {summary}",
-        "",
-        "Verdicts: **holds** (as the seed says), **size holds, direction opposite** (the size of the effect "
-        "is the seed's, its sign is not), **fails**.",
-        "",
-        "| # | claim (seed) | test and threshold | measured | verdict |",
-        "|---|---|---|---|---|",
-    ]
-    for c in claims:
-        lines.append(f"| {c.number} | {c.claim} | {c.test} | {c.measured} | **{c.verdict}** |")
-    lines.append("")
-    greens_by = _greens_by_material(greens)
-    lines += _decides_section({c.number: c for c in claims}, study, settings, variants, greens_by)
-    lines += _equivalent_section(study, settings)
-    lines += _cases_section(study)
-    if spectra:
-        lines += _stiffness_spectrum_section(spectra, settings.reference_material, variants, list(settings.materials))
-    if surface is not None:
-        lines += _surface_section(surface)
-    materials = [str(m) for m in dict.fromkeys(study["material"].values.astype(str))]
-    lags = {int(float(ds.attrs["n_lags"])) for ds in greens_by.values() if "n_lags" in ds.attrs}
-    run_note = ""
-    if lags and "native_samples" in study:
-        longest = int(study.study.select(mode="dynamic")["native_samples"].max())
-        run_note = (f"the longest dynamic run has {longest} steps, the kernel keeps {min(lags)} lags: "
-                    + ("the runs never reach beyond the kept memory" if longest <= min(lags) else
-                       "longer runs need the kernel's long-memory tail"))
-    lines += _material_section(greens_by, materials, variants, settings.reference_material, run_note)
-    for section in extra_sections:
-        lines += list(section)
-    lines += ["## Config", "", "```yaml", io.config_yaml(config).rstrip(), "```", ""]
-    return "\n".join(lines)
-
-
-def write_report(text: str, path: str | Path) -> Path:
-    """Write the report atomically (no partial file on failure)."""
-    with io.atomic_path(path) as tmp:
-        Path(tmp).write_text(text, encoding="utf-8")
-    logger.info("wrote %s", path)
-    return Path(path)

@@ -1,0 +1,629 @@
+"""The sections of the reports, each a function of one :class:`ReportContext`.
+
+A section returns its markdown lines (ending with an empty line), or nothing when the context
+lacks what it reports on. Numbers that decide or qualify a statement come from the context: the
+thresholds (:data:`tyreroad.report.claims.THRESHOLDS` or the overrides given), the study's settings
+and the datasets; the assembling order is :data:`tyreroad.report.document.REPORT_SECTIONS`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, Mapping, Sequence
+
+import numpy as np
+import xarray as xr
+import yaml
+
+from .. import io
+from ..study import variant_members
+from .claims import _MM, _MN, DIRECTION_OPPOSITE, HOLDS, NOT_EVALUATED, THRESHOLDS, ClaimContext, ClaimResult, _pct
+
+__all__ = [
+    "ReportContext",
+    "header_section",
+    "claims_section",
+    "decides_section",
+    "equivalent_section",
+    "cases_section",
+    "stiffness_spectrum_section",
+    "surface_section",
+    "material_section",
+    "hysteresis_section",
+    "rolling_header_section",
+    "rolling_section",
+    "config_section",
+]
+
+
+@dataclass(frozen=True)
+class ReportContext:
+    """What the report sections read.
+
+    Attributes
+    ----------
+    thresholds : mapping
+        Thresholds of the claims and of the rolling section (:data:`THRESHOLDS` with any overrides).
+    claims : ClaimContext or None
+        The study dataset, its settings and variant groups (None for a report without a study,
+        e.g. ``results/rolling.md``).
+    results : mapping
+        Claim number -> :class:`ClaimResult` of the evaluated claims.
+    config : mapping or None
+        The config the report is made from (its hash is printed in the header).
+    config_text : str
+        The YAML printed in the config section.
+    surface : xarray.Dataset or None
+        The study's surface dataset.
+    greens : dict
+        Green's datasets by material.
+    spectra : sequence of xarray.Dataset
+        Stiffness-spectrum datasets (K*(f; d0)).
+    loading : xarray.Dataset or None
+        ``results/loading.nc`` (load-unload cycles).
+    rolling : xarray.Dataset or None
+        ``results/rolling.nc`` (rolling study).
+    """
+
+    thresholds: Mapping[str, float] = field(default_factory=lambda: dict(THRESHOLDS))
+    claims: ClaimContext | None = None
+    results: Mapping[int, ClaimResult] = field(default_factory=dict)
+    config: Mapping[str, Any] | None = None
+    config_text: str = ""
+    surface: xr.Dataset | None = None
+    greens: Mapping[str, xr.Dataset] = field(default_factory=dict)
+    spectra: Sequence[xr.Dataset] = ()
+    loading: xr.Dataset | None = None
+    rolling: xr.Dataset | None = None
+
+
+def greens_by_material(greens: Mapping[str, xr.Dataset] | Sequence[xr.Dataset] | None) -> dict[str, xr.Dataset]:
+    """Green's datasets keyed by material: a mapping as it is, a sequence by each dataset's ``material`` attribute."""
+    if greens is None:
+        return {}
+    if isinstance(greens, Mapping):
+        return dict(greens)
+    out = {}
+    for i, ds in enumerate(greens):
+        if "material" not in ds.attrs:
+            raise ValueError(f"Green's dataset #{i} has no 'material' attribute; pass a mapping material -> dataset")
+        out[str(ds.attrs["material"])] = ds
+    return out
+
+
+def _material_config(ds: xr.Dataset, name: str) -> dict:
+    """The resolved material preset recorded in a Green's file's provenance (empty if absent)."""
+    try:
+        cfg = yaml.safe_load(ds.attrs.get("config", "")) or {}
+        return dict(cfg.get("material", {}).get(name, {}))
+    except (yaml.YAMLError, AttributeError, TypeError):
+        return {}
+
+
+# --------------------------------------------------------------------------------------------------
+# the claims report results/report.md
+# --------------------------------------------------------------------------------------------------
+def header_section(ctx: ReportContext) -> list[str]:
+    """Title, versions, config hashes, the reference case and how K and K_sat are computed."""
+    study, settings = ctx.claims.study, ctx.claims.settings
+    a_ref = max(settings.accelerations)
+    return [
+        "# tyreroad: claims of Winroth, Andersson & Kropp (JSV 2014) checked",
+        "",
+        f"- tyreroad version: {io.code_version()} (study file made by "
+        f"{study.attrs.get('tyreroad_version', 'unknown')})",
+        f"- report config SHA-256: `{io.config_hash(ctx.config)}` — hash of the config this report was made "
+        "from (the `study` section and the variant groups, printed at the end)",
+        f"- study file config SHA-256: `{study.attrs.get('config_sha256', 'not recorded')}` — hash recorded "
+        "in results/study.nc of the config that made it (`study` section and `d_max`); the two hash "
+        "different sections, so they differ; each changes when its own config changes",
+        f"- surface `{settings.surface}`, reference material `{settings.reference_material}`, "
+        f"reference case: dynamic at a = {a_ref:g} m/s², d_max = {settings.d_max * _MM:g} mm",
+        f"- K = dF/dd by second-order differences on each run's native samples, then linear interpolation "
+        f"onto a {settings.indentation_step * 1e6:g} µm grid"
+        + ("; quasi-static runs: the tangent dF/dd of each solved state, F and K by cubic Hermite "
+           "interpolation" if "stiffness_from_tangent" in study and int(study["stiffness_from_tangent"].sum()) else "")
+        + "; K_sat = median K over "
+        f"[{settings.saturation_range[0] * _MM:g}, {settings.saturation_range[1] * _MM:g}] mm",
+        "",
+    ]
+
+
+def claims_section(ctx: ReportContext) -> list[str]:
+    """The claims table: one row per claim of the registry, with the count of claims that hold."""
+    claims = [ctx.results[n] for n in sorted(ctx.results)]
+    n_hold = sum(c.verdict == HOLDS for c in claims)
+    n_eval = sum(c.verdict != NOT_EVALUATED for c in claims)
+    n_opposite = sum(c.verdict == DIRECTION_OPPOSITE for c in claims)
+    summary = f"{n_hold} of {n_eval} evaluated hold"
+    if n_opposite:
+        summary += f", {n_opposite} hold{'s' if n_opposite == 1 else ''} in size with the opposite direction"
+    lines = [
+        f"## Seed claims: {summary}",
+        "",
+        "Verdicts: **holds** (as the seed says), **size holds, direction opposite** (the size of the effect "
+        "is the seed's, its sign is not), **fails**.",
+        "",
+        "| # | claim (seed) | test and threshold | measured | verdict |",
+        "|---|---|---|---|---|",
+    ]
+    for c in claims:
+        lines.append(f"| {c.number} | {c.claim} | {c.test} | {c.measured} | **{c.verdict}** |")
+    return lines + [""]
+
+
+
+
+def surface_section(ctx: ReportContext) -> list[str]:
+    """Texture statistics of the study's road surface (none without a surface dataset)."""
+    surface = ctx.surface
+    if surface is None:
+        return []
+    need = ("mpd", "rms_height", "skewness", "peak_fraction_within", "z1")
+    missing = [n for n in need if n not in surface.variables]
+    if missing:
+        raise ValueError(f"surface dataset lacks {', '.join(missing)} (docs/data_contracts.md 'Surface dataset')")
+    lines = [
+        f"## Road surface `{surface.attrs.get('surface', '?')}`",
+        "",
+        "| quantity | value |",
+        "|---|---|",
+        f"| MPD (whole field, ISO 13473-1) | {float(surface['mpd']) * _MM:.3f} mm |",
+        f"| rms height | {float(surface['rms_height']) * 1e6:.1f} µm |",
+        f"| skewness | {float(surface['skewness']):+.3f} |",
+        f"| patch elements | {surface.sizes['ex']} × {surface.sizes['ey']} |",
+    ]
+    if "element_size" in surface.attrs:
+        lines.append(f"| element size | {float(surface.attrs['element_size']) * _MM:g} mm |")
+    depth_dim = surface["peak_fraction_within"].dims[0]
+    for depth, frac in zip(surface[depth_dim].values, surface["peak_fraction_within"].values):
+        lines.append(f"| element peaks within {float(depth) * _MM:.2f} mm of the top | {100 * float(frac):.1f} % |")
+    return lines + [""]
+
+
+def material_section(ctx: ReportContext) -> list[str]:
+    """Per study material: variant scales, density, nu, h, E' / eta at three frequencies, kernel summary."""
+    greens, variants = ctx.greens, ctx.claims.variants
+    ref = ctx.claims.settings.reference_material
+    materials = ctx.claims.materials
+    run_note = _run_note(ctx)
+    scale = {m: ("", "") for m in materials}
+    for kind, col in (("loss", 0), ("density", 1)):
+        for s, m in variant_members(variants, kind, materials, ref):
+            cur = list(scale[m])
+            cur[col] = f"{s:g}"
+            scale[m] = tuple(cur)
+    freqs = (100.0, 1000.0, 10000.0)
+    lines = [
+        "## Materials",
+        "",
+        "| material | η scale | ρ scale | ρ [kg/m³] | ν | h [mm] | "
+        + " | ".join(f"E′ / η at {f:g} Hz" for f in freqs)
+        + " | kept g(0) fraction | precursor energy |",
+        "|---|---|---|---|---|---|" + "---|" * len(freqs) + "---|---|",
+    ]
+    for m in materials:
+        ds = greens.get(m)
+        cells = [m, scale[m][0] or "—", scale[m][1] or "—"]
+        if ds is None:
+            cells += ["—"] * (3 + len(freqs) + 2)
+        else:
+            cfg = _material_config(ds, m)
+            cells += [
+                f"{float(cfg['density']):g}" if "density" in cfg else "—",
+                f"{float(cfg['poisson_ratio']):g}" if "poisson_ratio" in cfg else "—",
+                f"{float(cfg['thickness']) * _MM:g}" if "thickness" in cfg else "—",
+            ]
+            f = ds["frequency"].values
+            for fr in freqs:
+                if f[0] <= fr <= f[-1]:
+                    e = np.interp(fr, f, ds["storage_modulus"].values)
+                    eta = np.interp(fr, f, ds["loss_factor"].values)
+                    cells.append(f"{e * 1e-6:.1f} MPa / {eta:.3f}")
+                else:
+                    cells.append("outside band")
+            cells.append(f"{float(ds['kept_fraction']):.4f}" if "kept_fraction" in ds else "—")
+            cells.append(f"{float(ds['precursor_energy_fraction']):.2e}" if "precursor_energy_fraction" in ds else "—")
+        lines.append("| " + " | ".join(cells) + " |")
+    lines += [
+        "",
+        "- *kept g(0) fraction*: share of the static compliance g(ω = 0) at the excitation element that the "
+        "kept time lags of the kernel hold (the rest is slow creep beyond the kernel's memory)"
+        + (f"; {run_note}." if run_note else "."),
+        "- *precursor energy*: energy of the discarded non-causal part of the inverse FFT (samples at "
+        "negative time) over the kernel's total energy; small means the time-domain kernel is causal.",
+    ]
+    return lines + [""]
+
+
+def _stiffness_at(ds: xr.Dataset, preload_index: int, freq: float) -> tuple[float, float] | None:
+    """(K' [N/m], loss factor [1]) of a stiffness spectrum at ``freq`` [Hz]: the grid value when the
+    frequency is on the grid, else None (the stage inserts the report frequencies into its grid)."""
+    f = ds["frequency"].values
+    j = int(np.argmin(np.abs(f - freq)))
+    if not np.isclose(f[j], freq, rtol=1e-9, atol=0):
+        return None
+    sel = ds.isel(preload=preload_index, frequency=j)
+    return float(sel["storage_stiffness"]), float(sel["loss_factor"])
+
+
+def _spectrum_row(ds: xr.Dataset, p: int, freqs: Sequence[float]) -> list[str]:
+    k_qs = float(ds["tangent_stiffness_qs"][p])
+    cells = []
+    for fr in freqs:
+        v = _stiffness_at(ds, p, fr)
+        cells.append("—" if v is None else f"{v[0] * _MN:.3f} / {v[1]:.3f}")
+    at_1k = _stiffness_at(ds, p, 1000.0)
+    cells.append("—" if at_1k is None else f"{at_1k[0] / k_qs:.3f}")
+    return cells
+
+
+def stiffness_spectrum_section(ctx: ReportContext) -> list[str]:
+    """Report section on K*(f; d0): K' and the loss factor at the report frequencies per preload
+    (none without stiffness-spectrum datasets or without one of the reference material)."""
+    if not ctx.spectra:
+        return []
+    settings = ctx.claims.settings
+    return _stiffness_spectrum_section(ctx.spectra, settings.reference_material, ctx.claims.variants,
+                                       list(settings.materials))
+
+
+def _stiffness_spectrum_section(spectra: Sequence[xr.Dataset], reference: str, variants: Mapping[str, Any],
+                                materials: Sequence[str]) -> list[str]:
+    """:func:`stiffness_spectrum_section` from its datasets (``variants`` is not used; the signature is
+    kept for tests/test_stiffness.py, which calls it directly)."""
+    by = {str(ds.attrs.get("material")): ds for ds in spectra}
+    if reference not in by:
+        return []
+    ref = by[reference]
+    freqs = [float(f) for f in np.atleast_1d(ref.attrs.get("report_frequencies", (100.0, 1000.0, 5000.0)))]
+    head = " | ".join(f"K′ [MN/m] / η at {f:g} Hz" for f in freqs)
+    f_lo = float(ref["frequency"].values[0])
+    lines = [
+        "## Dynamic contact stiffness K*(f; d0)",
+        "",
+        "The contact spring a tyre/road model needs, per preload d0: the complex contact stiffness "
+        "K* = 1ᵀ[G_C(f) + diag(1/k_e)]⁻¹1 of the contact linearised about the **relaxed preload state** (the "
+        "quasi-static solution at d0 with the quasi-static modulus: a tread held at d0 until it has relaxed, "
+        "which takes seconds and more for the default fractional tread), with the element FRF g(f) of the layer "
+        "over the contact set C and the tangent spring stiffnesses k_e (SPEC 11; exp(+iωt), F̂ = K* δ̂). "
+        f"Files: `results/stiffness_spectrum/{{surface}}/{{material}}.nc` ({ref.sizes['frequency']} frequencies "
+        f"from {f_lo:g} Hz to {float(ref['frequency'].values[-1]):g} Hz), figure "
+        "`results/figures/fig9_stiffness_spectrum.png`. K′ = Re K*, η = Im K*/Re K*, K_qs = dF/dd of the "
+        "quasi-static curve at d0.",
+        "",
+        f"Reference material `{reference}`:",
+        "",
+        f"| d0 [mm] | in contact | F(d0) [N] | K_qs [MN/m] | K*(f→0)/K_qs − 1 | K′({f_lo:g} Hz)/K_qs | {head} "
+        "| K′(1 kHz)/K_qs |",
+        "|---|---|---|---|---|---|" + "---|" * len(freqs) + "---|",
+    ]
+    for p, d0 in enumerate(ref["preload"].values):
+        k_qs = float(ref["tangent_stiffness_qs"][p])
+        lines.append(
+            f"| {d0 * _MM:.3g} | {100 * float(ref['contact_fraction'][p]):.1f} % | {float(ref['preload_force'][p]):.1f} "
+            f"| {k_qs * _MN:.3f} | {float(ref['relaxed_stiffness'][p]) / k_qs - 1:+.1e} "
+            f"| {float(ref['storage_stiffness'][p, 0]) / k_qs:.3f} | " + " | ".join(_spectrum_row(ref, p, freqs)) + " |"
+        )
+    fig_preload = float(ref.attrs.get("figure_preload", ref["preload"].values[(ref.sizes["preload"] - 1) // 2]))
+    others = [m for m in materials if m in by]
+    lines += [
+        "",
+        f"All materials at d0 = {fig_preload * _MM:g} mm:",
+        "",
+        f"| material | K_qs [MN/m] | {head} | K′(1 kHz)/K_qs |",
+        "|---|---|" + "---|" * len(freqs) + "---|",
+    ]
+    for m in others:
+        ds = by[m]
+        pre = ds["preload"].values
+        p = int(np.argmin(np.abs(pre - fig_preload)))
+        if not np.isclose(pre[p], fig_preload, rtol=1e-9, atol=0):
+            continue
+        lines.append(f"| {m} | {float(ds['tangent_stiffness_qs'][p]) * _MN:.3f} | "
+                     + " | ".join(_spectrum_row(ds, p, freqs)) + " |")
+    loss_min = min(float(by[m]["loss_stiffness"].min()) for m in others)
+    limit = max(abs(float(by[m]["relaxed_stiffness"][p] / by[m]["tangent_stiffness_qs"][p] - 1))
+                for m in others for p in range(by[m].sizes["preload"]))
+    lines += [
+        "",
+        f"- f → 0: K*(f → 0) (element FRF at f = 0, modulus E(ω → 0)) equals K_qs to {limit:.1e} at every preload "
+        f"and material. At {f_lo:g} Hz the contact is still stiffer than that: the tread's modulus keeps relaxing "
+        "well below 10 Hz.",
+        f"- Passivity: the smallest loss stiffness K″ over every material, preload and frequency is "
+        f"{loss_min * _MN:.4f} MN/m ({'≥ 0' if loss_min >= 0 else 'NEGATIVE'}).",
+        "- Reading it: `xarray.open_dataset(path).storage_stiffness.sel(preload=1e-4, frequency=1000)`; "
+        "see the README (\"contact spring for your model\").",
+        "",
+    ]
+    return lines
+
+
+def _storage_change(greens: dict[str, xr.Dataset], material: str, reference: str, freq: float) -> float | None:
+    """E'(material) / E'(reference) - 1 at ``freq`` [Hz] from the Green's datasets (None if unavailable)."""
+    if material not in greens or reference not in greens:
+        return None
+    out = []
+    for name in (material, reference):
+        ds = greens[name]
+        f = ds["frequency"].values
+        if not (f[0] <= freq <= f[-1]):
+            return None
+        out.append(float(np.interp(freq, f, ds["storage_modulus"].values)))
+    return out[0] / out[1] - 1.0
+
+
+def _loss_factor_at(greens: dict[str, xr.Dataset], material: str, freq: float) -> float | None:
+    ds = greens.get(material)
+    if ds is None:
+        return None
+    f = ds["frequency"].values
+    return float(np.interp(freq, f, ds["loss_factor"].values)) if f[0] <= freq <= f[-1] else None
+
+
+def decides_section(ctx: ReportContext) -> list[str]:
+    """"What decides claims 5-7": the mechanism behind each verdict, from the study's own numbers
+    and the context's thresholds."""
+    claims, greens, t = ctx.results, ctx.greens, ctx.thresholds
+    settings, variants = ctx.claims.settings, ctx.claims.variants
+    ref = settings.reference_material
+    lo, hi = settings.saturation_range
+    lines = ["## What decides claims 5–7", ""]
+    c5 = claims.get(5)
+    if c5 is not None:
+        v = c5.values
+        fr = v["fraction_saturation_range"]
+        limit = t["c5_change_max"]
+        text = (
+            f"- **Claim 5 ({c5.verdict}).** {100 * v['fraction']:.0f} % of the elements are in contact at "
+            f"{t['c5_d'] * _MM:g} mm (seed ≈ 50 %). K changes by {100 * v['change']:.1f} % over the saturation range "
+            f"(limit {100 * limit:g} %); the contact fraction goes {fr[0]:.3f} → {fr[1]:.3f} between "
+            f"{lo * _MM:g} and {hi * _MM:g} mm. "
+        )
+        if v["change"] > limit:
+            text += ("K keeps rising because elements still come into contact there, each adding a spring in "
+                     f"parallel: a flatter K needs a surface whose element peaks lie within about {t['c5_d'] * _MM:g} mm "
+                     "of the top (few new contacts beyond it).")
+        else:
+            text += f"Few new contacts beyond {lo * _MM:g} mm: K saturates."
+        lines.append(text)
+    c6 = claims.get(6)
+    if c6 is not None and c6.values.get("delta"):
+        parts = []
+        agree = []
+        names = dict(variant_members(variants, "loss", settings.materials, ref))
+        for scale, delta in c6.values["delta"].items():
+            name = names.get(scale)
+            e1 = _storage_change(greens, name, ref, 1000.0) if name else None
+            e10 = _storage_change(greens, name, ref, 10000.0) if name else None
+            if e1 is not None and e10 is not None:
+                parts.append(f"η×{scale:g}: E′ {_pct(e1)} at 1 kHz, {_pct(e10)} at 10 kHz, K_sat {_pct(delta)}")
+                agree.append(np.sign(delta) == np.sign(e1))
+        text = (
+            f"- **Claim 6 ({c6.verdict}).** The seed's loss variants keep |E| and scale η (SPEC 5), so the "
+            "storage modulus E′ = |E|/√(1 + s²η²) falls where η rises, while the loss modulus E″ rises."
+        )
+        if parts:
+            text += " Here: " + "; ".join(parts) + "."
+            if all(agree):
+                text += (" K_sat moves with E′: the lower storage modulus outweighs the added loss modulus. "
+                         "The seed's direction (higher η → stiffer) would need a material whose added E″ in the "
+                         "loading's frequency band stiffens the contact more than the lower E′ softens it.")
+            else:
+                text += " K_sat does not follow E′ for every variant: the added loss modulus counts as much."
+        folded = {n: int(float(ds.attrs.get("precursor_folded", 0))) for n, ds in greens.items()}
+        pre = {n: float(ds["precursor_sum_fraction"]) for n, ds in greens.items() if "precursor_sum_fraction" in ds}
+        loss_names = [n for _, n in variant_members(variants, "loss", settings.materials, ref) if n != ref]
+        if pre and all(n in pre for n in loss_names) and ref in pre:
+            text += (
+                " Scaling η at constant |E| breaks the Kramers–Kronig relations: the variants are not causal, and "
+                "their band-limited kernels carry a negative-time response of their own ("
+                + ", ".join(f"{n}: {_pct(pre[n])} of g(0)" for n in loss_names)
+                + f"; the causal reference's is only its band-limit ringing, {_pct(pre[ref])}). "
+                + ("The greens stage puts the reference's ringing back on its first lags (causal correction) and "
+                   "discards the variants' own non-causal response, as the seed's kernel does. "
+                   if folded.get(ref) and not any(folded.get(n) for n in loss_names) else "")
+                + "The direction of this claim depends on that choice: folding the variants' non-causal sums onto "
+                "lag 0 as well reverses it (docs/long_memory.md records that experiment)."
+            )
+        lines.append(text)
+    c7 = claims.get(7)
+    if c7 is not None and c7.values.get("ripple"):
+        rip = c7.values["ripple"]
+        eta10 = _loss_factor_at(greens, ref, 10000.0)
+        text = (
+            f"- **Claim 7 ({c7.verdict}).** The ripple of K for d ≤ {t['c7_ripple_d_max'] * _MM:g} mm is "
+            + ", ".join(f"ρ×{s:g}: {v:.1e} K_sat" for s, v in sorted(rip.items()))
+            + f" (ratio {c7.values['ripple_ratio']:.2f}; the test asks ≥ {t['c7_ripple_ratio_min']:g}). "
+            "Inertia ripples are layer oscillations excited as elements come into contact."
+        )
+        rip_qs = c7.values.get("ripple_quasistatic", math.nan)
+        if math.isfinite(rip_qs) and rip.get(1.0, 0) > 0:
+            text += (f" The quasi-static run, which has no inertia at all, has a ripple of {rip_qs:.1e} K_sat "
+                     f"({rip_qs / rip[1.0]:.2f} × the dynamic reference's): ")
+            text += ("most of the measured ripple comes from elements entering contact one by one (the surface), "
+                     "which the density does not change." if rip_qs / rip[1.0] >= 0.5 else
+                     "the dynamic ripple is mostly the layer's inertia.")
+        if eta10 is not None:
+            text += (f" With η = {eta10:.2f} at 10 kHz an oscillation keeps a factor e^(−πη) = "
+                     f"{math.exp(-math.pi * eta10):.2f} of its amplitude per period, whatever the density.")
+        if c7.values["ripple_ratio"] < t["c7_ripple_ratio_min"]:
+            text += " Whether another stand-in material or surface gives ripples that grow with the density is what the sensitivity sweep measures."
+        lines.append(text)
+    lines += [
+        "",
+        "Which stand-in material or surface would change these verdicts is the question of the sensitivity "
+        "sweep: `snakemake -j2 sensitivity` writes `results/sensitivity.md` (table and conclusion), "
+        "`results/sensitivity.nc` and `results/figures/sensitivity.png`.",
+        "",
+    ]
+    return lines
+
+
+def equivalent_section(ctx: ReportContext) -> list[str]:
+    """Equivalent quasi-static stiffness s(a) per material and its misfit (from ``study.nc``)."""
+    study, settings = ctx.claims.study, ctx.claims.settings
+    if "equivalent_modulus_scale" not in study:
+        return []
+    rng = np.atleast_1d(study.attrs.get("equivalent_range_m", [np.nan, np.nan]))
+    ref = settings.reference_material
+    accels = sorted(settings.accelerations)
+    materials = [str(m) for m in dict.fromkeys(study["material"].values.astype(str))]
+
+    def cell(material, a):
+        c = study.study.sel_case(material=material, mode="dynamic", accel=a)
+        return float(c["equivalent_modulus_scale"]), float(c["equivalent_misfit"])
+
+    ref_vals = [cell(ref, a) for a in accels]
+    worst = max(m for _, m in ref_vals)
+    lines = [
+        "## Equivalent quasi-static stiffness",
+        "",
+        "The seed's practical conclusion: inertia and damping can be approximated by a stiffer quasi-static "
+        "model tuned per acceleration. The quasi-static force scales exactly with a common modulus factor s "
+        f"of layer and springs, so s(a) is the least-squares fit of K_dyn(d) by s·K_QS(d) over "
+        f"{rng[0] * _MM:g}–{rng[-1] * _MM:g} mm; the misfit is RMS(K_dyn − s·K_QS) / RMS(K_dyn) "
+        "(`equivalent_modulus_scale`, `equivalent_misfit` in results/study.nc).",
+        "",
+        f"Reference material `{ref}`: "
+        + ", ".join(f"s({a:g} m/s²) = {s_:.3f} (misfit {100 * m:.2f} %)" for a, (s_, m) in zip(accels, ref_vals))
+        + f". The approximation reproduces K(d) to within {100 * worst:.1f} % RMS; what it leaves is the "
+        "shape: K_dyn/K_QS is not constant in d.",
+        "",
+        "| material | " + " | ".join(f"s({a:g}) / misfit" for a in accels) + " |",
+        "|---|" + "---|" * len(accels),
+    ]
+    for m in materials:
+        lines.append(f"| {m} | " + " | ".join(f"{s_:.3f} / {100 * mf:.2f} %" for s_, mf in (cell(m, a) for a in accels)) + " |")
+    return lines + [""]
+
+
+def cases_section(ctx: ReportContext) -> list[str]:
+    """One row per study case: K_sat, K_sat of the backing force, contact fraction at claim 5's d, final F."""
+    study, d_c5 = ctx.claims.study, ctx.thresholds["c5_d"]
+    d = study["indentation"].values
+    lines = [
+        "## Cases",
+        "",
+        f"| case | K_sat [MN/m] | K_sat from backing force [MN/m] | contact fraction at {d_c5 * _MM:g} mm | F at d_max [N] |",
+        "|---|---|---|---|---|",
+    ]
+    for i, label in enumerate(study["case"].values.astype(str)):
+        c = study.isel(case=i)
+        frac = c["contact_fraction"].values
+        ok = np.isfinite(frac)
+        f = c["force"].values
+        lines.append(
+            f"| {label} | {float(c['saturated_stiffness']) * _MN:.4f} | "
+            f"{float(c['saturated_backing_stiffness']) * _MN:.4f} | "
+            f"{np.interp(d_c5, d[ok], frac[ok]):.3f} | {f[np.isfinite(f)][-1]:.2f} |"
+        )
+    return lines + [""]
+
+
+def _run_note(ctx: ReportContext) -> str:
+    """Whether the longest dynamic run reaches beyond the kernel's kept lags ("" without lag counts)."""
+    study = ctx.claims.study
+    lags = {int(float(ds.attrs["n_lags"])) for ds in ctx.greens.values() if "n_lags" in ds.attrs}
+    if not lags or "native_samples" not in study:
+        return ""
+    longest = int(study.study.select(mode="dynamic")["native_samples"].max())
+    return (f"the longest dynamic run has {longest} steps, the kernel keeps {min(lags)} lags: "
+            + ("the runs never reach beyond the kept memory" if longest <= min(lags) else
+               "longer runs need the kernel's long-memory tail"))
+
+
+# --------------------------------------------------------------------------------------------------
+# sections on the further studies: load-unload cycles, rolling
+# --------------------------------------------------------------------------------------------------
+def hysteresis_section(ctx: ReportContext) -> list[str]:
+    """The load-unload cycles of ``results/loading.nc``: W per case (none without it)."""
+    loading = ctx.loading
+    if loading is None:
+        return []
+    lines = [
+        "## Load-unload cycles: hysteresis",
+        "",
+        "Each cycle loads at constant speed, holds, and unloads until every element has separated "
+        "(SPEC 10). W is the closed integral of F dd; a quasi-static run has no rate dependence, so its "
+        "W is round-off.",
+        "",
+        "| material | mode | loading | W [mJ] | loading work [mJ] | W / loading work | peak force [N] |",
+        "|---|---|---|---:|---:|---:|---:|",
+    ]
+    for i in range(loading.sizes["case"]):
+        c = loading.isel(case=i)
+        lines.append(
+            f"| {c['material'].item()} | {c['mode'].item()} | {c['loading'].item()} | "
+            f"{1e3 * float(c['dissipated_energy']):.4g} | {1e3 * float(c['loading_work']):.4g} | "
+            f"{float(c['loss_ratio']):.3g} | {float(c['peak_force']):.4g} |"
+        )
+    return lines + [""]
+
+
+def rolling_header_section(ctx: ReportContext) -> list[str]:
+    """Title of ``results/rolling.md``."""
+    return ["# tyreroad: rolling contact", ""]
+
+
+def rolling_section(ctx: ReportContext) -> list[str]:
+    """The rolling study of ``results/rolling.nc``: the table per material and speed, and what it means
+    (none without it). Dynamic cases whose fs/2 chatter measure exceeds the threshold
+    ``rolling_chatter_max`` are flagged and left out of the coefficient range, which is checked
+    against [``rolling_coefficient_lo``, ``rolling_coefficient_hi``]."""
+    study, t = ctx.rolling, ctx.thresholds
+    if study is None:
+        return []
+    chatter_max = t["rolling_chatter_max"]
+    lines = ["## Rolling contact (SPEC 12)", "",
+             f"A slick tyre of radius {study.attrs['radius']:g} m rolls over the road strip {study.attrs['surface']} "
+             f"({study.attrs['strip_length'] * 1e3:.0f} mm long) at a fixed axle height (d0 from the wheel load). Rolling-loss force W/dx with dx = strip length; "
+             "coefficient = W/dx over the steady mean force. Band levels of the force fluctuation over the steady "
+             "part (dB re 1 N).", "",
+             "| material | mode | v [m/s] | d0 [mm] | mean F [N] | W/dx [N] | coefficient | steady P/v [N] | "
+             "centre - x_c [mm] | rms dF [N] | strongest band [Hz] | level [dB] |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for i in range(study.sizes["case"]):
+        s = study.isel(case=i)
+        lv = s["band_level"].values
+        top = float(np.nanmax(lv)) if np.isfinite(lv).any() else float("nan")
+        flag = " (fs/2 chatter)" if "chatter" in s and float(s["chatter"]) > chatter_max else ""
+        lines.append(
+            f"| {s['material'].item()}{flag} | {s['mode'].item()} | {float(s['speed']):g} | {1e3 * float(s['d0']):.4f} | "
+            f"{float(s['steady_force']):.1f} | {float(s['rolling_loss_force']):.4g} | "
+            f"{float(s['rolling_loss_coefficient']):.3e} | {float(s['steady_loss_force']):.4g} | "
+            f"{1e3 * float(s['centre_offset']):.3f} | {float(s['fluctuation_rms']):.3g} | "
+            f"{float(s['strongest_band']):.0f} | {top:.1f} |")
+    bad = [i for i in range(study.sizes["case"]) if "chatter" in study and float(study["chatter"][i]) > chatter_max]
+    if bad:
+        names = ", ".join(f"{study['material'].values[i]} at {float(study['speed'][i]):g} m/s" for i in bad)
+        lines += ["", f"**Not trustworthy: {names}.** The force alternates from step to step (fs/2 chatter, growing "
+                  "along the pass): the time march with the discrete kernel is unstable for this material and speed "
+                  "with these springs (a numerical limit of the solver, not physics); these cases are left out of "
+                  "the range below."]
+    dyn = study.where((study["mode"] == "dynamic") & (study["chatter"] <= chatter_max if "chatter" in study
+                                                       else study["mode"] == "dynamic"), drop=True)
+    if dyn.sizes.get("case", 0):
+        coef = dyn["rolling_loss_coefficient"].values
+        sensible = np.all((coef > t["rolling_coefficient_lo"]) & (coef < t["rolling_coefficient_hi"]))
+        strongest = sorted({float(v) for v in dyn["strongest_band"].values if np.isfinite(v)})
+        lines += ["", f"Strongest 1/3-octave bands of the dynamic force: {', '.join(f'{v:.0f}' for v in strongest)} Hz "
+                  f"(v / f = {', '.join(f'{1e3 * float(sp) / float(fb):.0f}' for sp, fb in zip(dyn['speed'].values, dyn['strongest_band'].values))} mm: "
+                  "a band that moves with the speed at a fixed wavelength is excited by the road texture)."]
+        lines += ["", f"Dynamic rolling-loss coefficients span {np.nanmin(coef):.2e} to {np.nanmax(coef):.2e}; "
+                  f"tread hysteresis is expected of the order of 1e-3 to 1e-2: "
+                  f"{'in that range' if sensible else 'OUTSIDE that range (check the material and d0)'}."]
+    qs = study.where(study["mode"] == "quasistatic", drop=True)
+    for material in dict.fromkeys(qs["material"].values.astype(str)) if qs.sizes.get("case", 0) else []:
+        curves = qs["force_curve"].values[qs["material"].values.astype(str) == material]
+        if len(curves) > 1:
+            diff = np.max(np.abs(curves - curves[0])) / np.max(np.abs(curves[0]))
+            lines += ["", f"Quasi-static passes of {material} at {len(curves)} speeds: F(x_c) differs by at most "
+                      f"{diff:.1e} of its peak (no rate effect)."]
+    return lines + [""]
+
+
+def config_section(ctx: ReportContext) -> list[str]:
+    """The config the report was made from, as YAML."""
+    return ["## Config", "", "```yaml", ctx.config_text.rstrip(), "```", ""]

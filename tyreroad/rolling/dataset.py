@@ -1,0 +1,150 @@
+"""The file of one rolling pass and the rolling study ``results/rolling.nc``."""
+
+from __future__ import annotations
+
+from typing import Mapping, Sequence
+
+import numpy as np
+import xarray as xr
+
+from .analysis import band_levels, belt_power, pass_work, steady_mask, third_octave_centres
+from .recorder import RollingResult
+from .settings import RollingSettings
+
+__all__ = ["rolling_dataset", "aggregate_rolling"]
+
+
+def rolling_dataset(result: RollingResult, info: Mapping[str, float], mode: str, speed: float,
+                    settings: RollingSettings, surface: xr.Dataset | None, surface_name: str,
+                    material_name: str) -> xr.Dataset:
+    """The file of one rolling pass (docs/data_contracts.md "Rolling run dataset").
+
+    Step series (t, x_c, force, contact count, pressure centre, belt power, Newton counts), the
+    element forces at the snapshot steps, and the pass's scalars: d0, the work W and its positive
+    part, the rolled distance (strip length), the rolling-loss force W / dx, the steady part's mean
+    force and mean power / v.
+    """
+    n = result.force.size
+    nx, ny = result.snapshot_force.shape[1:] if result.snapshot_force.size else (0, 0)
+    power = belt_power(result, speed, settings.radius)
+    w, w_in = pass_work(result, speed, settings.radius)
+    steady = steady_mask(result.x_c, info, settings.steady_margin, settings.steady_entry)
+    dx_roll = info["strip_length"]
+    mean_force = float(result.force[steady].mean()) if steady.any() else float("nan")
+    steady_loss = float(power[steady].mean() / speed) if steady.any() else float("nan")
+
+    def a(units, long_name, **extra):
+        return {"units": units, "long_name": long_name, **extra}
+
+    coords = {
+        "step": ("step", np.arange(n), a("1", "step index")),
+        "time": ("step", result.time, a("s", "time since the start of the pass")),
+        "x_c": ("step", result.x_c, a("m", "contact centre x_c (the belt's lowest point) from the strip start")),
+        "snapshot": ("snapshot", np.arange(result.snapshot_step.size), a("1", "snapshot index")),
+        "ex": ("ex", np.arange(nx), a("1", "element index along x")),
+        "ey": ("ey", np.arange(ny), a("1", "element index along y")),
+    }
+    data = {
+        "force": ("step", result.force, a("N", "total contact force")),
+        "contact_count": ("step", result.contact_count, a("1", "number of elements in contact")),
+        "pressure_centre": ("step", result.pressure_centre, a("m", "pressure centre sum F_e x_e / F (NaN without contact)")),
+        "belt_power": ("step", power, a("W", "power the belt puts into the tread, sum F_e (-dz2_e/dt)")),
+        "steady": ("step", steady.astype(np.int8), a("1", "1 where the contact lies fully on the strip (steady part)")),
+        "newton_iterations": ("step", result.newton_iterations, a("1", "Newton iterations")),
+        "krylov_iterations": ("step", result.krylov_iterations, a("1", "Krylov products (0: direct solve)")),
+        "residual": ("step", result.residual, a("m", "final max-norm Newton residual")),
+        "snapshot_step": ("snapshot", result.snapshot_step, a("1", "step of the element force map")),
+        "snapshot_x_c": ("snapshot", result.x_c[result.snapshot_step], a("m", "x_c of the element force map")),
+        "element_force": (("snapshot", "ex", "ey"), result.snapshot_force, a("N", "contact spring force per element")),
+        "d0": ((), info["d0"], a("m", "indentation of the belt below the highest road peak")),
+        "work": ((), w, a("J", "work of the belt on the tread over the pass, W = int sum F_e (-dz2_e/dt) dt")),
+        "work_in": ((), w_in, a("J", "positive part of the belt's work (while the belt power is positive)")),
+        "rolled_distance": ((), dx_roll, a("m", "rolled distance of the loss force: the strip length")),
+        "rolling_loss_force": ((), w / dx_roll, a("N", "rolling-loss force W / dx")),
+        "steady_force": ((), mean_force, a("N", "mean total force over the steady part")),
+        "steady_loss_force": ((), steady_loss, a("N", "mean belt power over v in the steady part")),
+    }
+    if surface is not None and "element_x" in surface:
+        data["element_x"] = ("ex", surface["element_x"].values, a("m", "x of element centres"))
+        data["element_y"] = ("ey", surface["element_y"].values, a("m", "y of element centres"))
+        data["z1"] = (("ex", "ey"), surface["z1"].transpose("ex", "ey").values, a("m", "element matching height"))
+    attrs = {"mode": mode, "speed": float(speed), "radius": settings.radius, "material": material_name,
+             "surface": surface_name, "x_start": info["x_start"], "x_end": info["x_end"],
+             "half_length": info["half_length"], "element_size": info["element_size"],
+             "load": float("nan") if settings.load is None else float(settings.load),
+             "steady_margin": settings.steady_margin, "steady_entry": settings.steady_entry}
+    return xr.Dataset(data, coords=coords, attrs=attrs)
+
+
+def aggregate_rolling(runs: Sequence[xr.Dataset], band_limits=(100.0, 5000.0)) -> xr.Dataset:
+    """Per case (material, mode, speed): steady force, rolling-loss force and coefficient, band levels.
+
+    F(x_c) of every run is interpolated onto one x_c grid (that of the first quasi-static run,
+    else the first run) for the figures.
+    """
+    if not runs:
+        raise ValueError("aggregate_rolling: no rolling runs")
+    centres = third_octave_centres(*band_limits)
+    ref = next((r for r in runs if r.attrs["mode"] == "quasistatic"), runs[0])
+    x_grid = ref["x_c"].values
+    rows = []
+    for r in runs:
+        steady = r["steady"].values.astype(bool)
+        f = r["force"].values
+        t = r["time"].values
+        dt = float(np.median(np.diff(t))) if t.size > 1 else float("nan")
+        fluct = f[steady]
+        levels = band_levels(fluct, dt, centres) if steady.sum() > 8 else np.full(centres.size, np.nan)
+        finite = np.isfinite(levels)
+        strongest = float(centres[finite][np.argmax(levels[finite])]) if finite.any() else float("nan")
+        # fs/2 chatter of the time march (a period-2 alternation, amplitude = |second difference| / 4):
+        # a numerical instability of the discrete kernel with stiff springs, never physics
+        chatter = (float(np.sqrt(np.mean((0.25 * np.diff(fluct, 2)) ** 2))) / max(float(np.std(fluct)), 1e-300)
+                   if r.attrs["mode"] == "dynamic" and fluct.size > 2 else 0.0)
+        mean_f = float(r["steady_force"])
+        loss = float(r["rolling_loss_force"])
+        rows.append({
+            "material": r.attrs["material"], "mode": r.attrs["mode"], "speed": float(r.attrs["speed"]),
+            "steady_force": mean_f, "rolling_loss_force": loss, "steady_loss_force": float(r["steady_loss_force"]),
+            "rolling_loss_coefficient": loss / mean_f if mean_f > 0 else float("nan"),
+            "work": float(r["work"]), "work_in": float(r["work_in"]), "d0": float(r["d0"]),
+            "fluctuation_rms": float(np.std(fluct)) if fluct.size else float("nan"),
+            "band_level": levels, "strongest_band": strongest, "chatter": chatter,
+            "curve": np.interp(x_grid, r["x_c"].values, f, left=0.0, right=0.0),
+            "centre_offset": float(np.nanmean(r["pressure_centre"].values[steady] - r["x_c"].values[steady]))
+            if steady.any() else float("nan"),
+        })
+
+    def a(units, long_name):
+        return {"units": units, "long_name": long_name}
+
+    scal = {
+        "steady_force": ("N", "mean total force over the steady part"),
+        "rolling_loss_force": ("N", "rolling-loss force W / dx (dx = strip length)"),
+        "steady_loss_force": ("N", "mean belt power / v over the steady part"),
+        "rolling_loss_coefficient": ("1", "rolling-loss force over the steady mean force"),
+        "work": ("J", "work of the belt over the pass"),
+        "work_in": ("J", "positive part of the belt's work"),
+        "d0": ("m", "belt indentation below the highest road peak"),
+        "fluctuation_rms": ("N", "rms of the force fluctuation over the steady part"),
+        "strongest_band": ("Hz", "centre of the 1/3-octave band with the highest force level"),
+        "centre_offset": ("m", "mean pressure centre minus x_c over the steady part (> 0: ahead)"),
+        "chatter": ("1", "rms of the fs/2 alternation of the force over the rms fluctuation (> 0.05: the time "
+                         "march chattered, the case is not trustworthy)"),
+    }
+    data = {k: ("case", np.array([row[k] for row in rows]), a(*v)) for k, v in scal.items()}
+    data["band_level"] = (("case", "band"), np.array([row["band_level"] for row in rows]),
+                          a("dB re 1 N", "1/3-octave level of the force fluctuation over the steady part"))
+    data["force_curve"] = (("case", "position"), np.array([row["curve"] for row in rows]),
+                           a("N", "total force against x_c"))
+    coords = {
+        "case": ("case", np.arange(len(rows)), a("1", "case index")),
+        "material": ("case", [row["material"] for row in rows], {"units": "1", "long_name": "material preset"}),
+        "mode": ("case", [row["mode"] for row in rows], {"units": "1", "long_name": "run mode"}),
+        "speed": ("case", np.array([row["speed"] for row in rows]), a("m/s", "rolling speed")),
+        "band": ("band", centres, a("Hz", "1/3-octave band centre frequency")),
+        "position": ("position", x_grid, a("m", "contact centre x_c")),
+    }
+    attrs = {"radius": float(ref.attrs["radius"]), "surface": str(ref.attrs["surface"]),
+             "strip_length": float(ref["rolled_distance"])}
+    return xr.Dataset(data, coords=coords, attrs=attrs)

@@ -1,0 +1,114 @@
+"""Recording a rolling pass: the totals of every step and element force maps at a few steps."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+
+from .geometry import RollingPass
+
+__all__ = ["RollingResult", "RollingRecorder"]
+
+
+@dataclass(frozen=True)
+class RollingResult:
+    """Step series of one rolling pass.
+
+    Attributes
+    ----------
+    time, x_c : numpy.ndarray
+        t_n [s] and the contact centre [m], shape (n,).
+    force : numpy.ndarray
+        Total contact force [N].
+    contact_count : numpy.ndarray
+        Elements with F_e > 0.
+    moment : numpy.ndarray
+        sum_e F_e (x_e - x_c) [N m]; the belt power is v / R times it.
+    pressure_centre : numpy.ndarray
+        sum_e F_e x_e / F [m] (NaN without contact).
+    snapshot_step : numpy.ndarray
+        Steps of the stored element force maps.
+    snapshot_force : numpy.ndarray
+        F_e at those steps [N], shape (n_snapshots, nx, ny).
+    newton_iterations, krylov_iterations : numpy.ndarray
+        Per step.
+    residual : numpy.ndarray
+        Final max|R| per step [m].
+    """
+
+    time: np.ndarray
+    x_c: np.ndarray
+    force: np.ndarray
+    contact_count: np.ndarray
+    moment: np.ndarray
+    pressure_centre: np.ndarray
+    snapshot_step: np.ndarray
+    snapshot_force: np.ndarray
+    newton_iterations: np.ndarray
+    krylov_iterations: np.ndarray
+    residual: np.ndarray
+
+
+class RollingRecorder:
+    """Keeps the totals of every step and the element forces at a few steps only.
+
+    A pass of 150 x 20 elements over ~1800 steps would hold ~130 MB per field if every step's
+    element fields were kept; the march only needs an object with ``store`` and ``result``
+    (and ``contact_count`` for its log).
+
+    Parameters
+    ----------
+    loading : RollingPass
+        The pass (its lever arms x_e - x_c).
+    snapshot_steps : sequence of int
+        Steps whose element forces are kept.
+    """
+
+    def __init__(self, loading: RollingPass, snapshot_steps: Sequence[int]):
+        n = loading.n_steps
+        self.loading = loading
+        self.shape = loading.shape
+        self.force = np.zeros(n)
+        self.moment = np.zeros(n)
+        self.first_moment = np.zeros(n)
+        self.contact_count = np.zeros(n, dtype=np.int64)
+        self.newton_iterations = np.zeros(n, dtype=np.int64)
+        self.krylov_iterations = np.zeros(n, dtype=np.int64)
+        self.residual = np.zeros(n)
+        self.snapshot_steps = np.asarray(sorted(set(int(s) for s in snapshot_steps)), dtype=np.int64)
+        self.snapshots = np.zeros((self.snapshot_steps.size, loading.shape[0] * loading.shape[1]))
+
+    def store(self, n: int, step, displacement: np.ndarray) -> None:
+        """Record the converged ``step`` (a :class:`tyreroad.newton.StepResult`) of step n."""
+        f = step.force
+        lever = self.loading.lever(n)
+        self.force[n] = f.sum()
+        self.moment[n] = f @ lever
+        self.contact_count[n] = np.count_nonzero(f)
+        self.newton_iterations[n] = step.newton_iterations
+        self.krylov_iterations[n] = step.krylov_iterations
+        self.residual[n] = step.residual
+        where = np.flatnonzero(self.snapshot_steps == n)
+        if where.size:
+            self.snapshots[where[0]] = f
+
+    def result(self, loading: RollingPass, n_steps: int | None = None) -> RollingResult:
+        n = self.force.size if n_steps is None else n_steps
+        with np.errstate(invalid="ignore", divide="ignore"):
+            centre = np.where(self.force[:n] > 0, loading.x_c[:n] + self.moment[:n] / self.force[:n], np.nan)
+        keep = self.snapshot_steps < n
+        return RollingResult(
+            time=np.asarray(loading.time, dtype=float)[:n] if loading.time is not None else np.full(n, np.nan),
+            x_c=loading.x_c[:n].copy(),
+            force=self.force[:n].copy(),
+            contact_count=self.contact_count[:n].copy(),
+            moment=self.moment[:n].copy(),
+            pressure_centre=centre,
+            snapshot_step=self.snapshot_steps[keep],
+            snapshot_force=self.snapshots[keep].reshape((-1,) + tuple(self.shape)),
+            newton_iterations=self.newton_iterations[:n].copy(),
+            krylov_iterations=self.krylov_iterations[:n].copy(),
+            residual=self.residual[:n].copy(),
+        )
