@@ -10,7 +10,7 @@ import pytest
 from tyreroad.contact import SolverSettings
 from tyreroad.greens import greens_dataset, offset_table_index, static_element_kernel, unique_offsets
 from tyreroad.material import material_from_config
-from tyreroad.memory import TailModel
+from tyreroad.kernel import LayerKernel
 from tyreroad.report import ReportContext, rolling_section
 from tyreroad.rolling import (
     RollingPass,
@@ -47,11 +47,11 @@ def _material(cfg):
 
 
 def _static_kernel(shape, material):
-    """g_static[dx, dy] of the layer for a patch of ``shape`` elements."""
+    """The layer's static kernel g_static[dx, dy] for a patch of ``shape`` elements (time sampled at FS)."""
     dx, dy, index = offset_table_index(shape)
     g = static_element_kernel(unique_offsets(shape) * C, C, material.quasi_static_modulus, material.poisson,
                               material.thickness)
-    return g[index]
+    return LayerKernel(g[index][:, :, None], True, FS, element_size=C)
 
 
 def _flat_springs(shape, material, stiffness=None):
@@ -75,8 +75,8 @@ def tread_greens():
 
 
 def _kernels(ds):
-    return (ds["g"].transpose("dx", "dy", "lag").values, ds["g_static"].transpose("dx", "dy").values,
-            TailModel.from_greens(ds))
+    """(dynamic kernel with its tail, static kernel) of a greens dataset."""
+    return LayerKernel.from_greens(ds, "dynamic"), LayerKernel.from_greens(ds, "quasistatic")
 
 
 # --------------------------------------------------------------------------------------------
@@ -125,7 +125,7 @@ def test_pass_that_starts_in_contact_is_an_error():
     gs = _static_kernel(z1.shape, mat)
     settings = RollingSettings(load=None, d0=5e-5, x_start=0.004, x_end=0.05)
     with pytest.raises(ValueError, match="rolling.pass: the contact is on the strip at x_start"):
-        solve_rolling(z1, ex, springs, None, gs, "quasistatic", 5.0, settings, SolverSettings(), FS)
+        solve_rolling(z1, ex, springs, gs, gs, 5.0, settings, SolverSettings())
 
 
 # --------------------------------------------------------------------------------------------
@@ -137,7 +137,7 @@ def test_flat_quasistatic_pass_does_no_work_and_centres_the_pressure():
     springs = _flat_springs(z1.shape, mat)
     gs = _static_kernel(z1.shape, mat)
     settings = RollingSettings(load=150.0, quasistatic_step=5e-5, steady_entry=0.0)  # no memory: steady once on
-    res, info = solve_rolling(z1, ex, springs, None, gs, "quasistatic", 10.0, settings, SolverSettings(), FS)
+    res, info = solve_rolling(z1, ex, springs, gs, gs, 10.0, settings, SolverSettings())
     ds = rolling_dataset(res, info, "quasistatic", 10.0, settings, None, "flat", "tread")
     w, w_in = float(ds["work"]), float(ds["work_in"])
     assert w_in > 0
@@ -159,9 +159,9 @@ def test_flat_dynamic_pass_loses_energy_with_the_pressure_ahead(tread_greens):
     mat = _material(TREAD)
     z1, ex = _flat_strip(60, 6)
     springs = _flat_springs(z1.shape, mat)
-    g, gs, tail = _kernels(tread_greens)
+    g, gs = _kernels(tread_greens)
     settings = RollingSettings(load=None, d0=5e-5)
-    res, info = solve_rolling(z1, ex, springs, g, gs, "dynamic", 6.0, settings, SolverSettings(), FS, tail=tail)
+    res, info = solve_rolling(z1, ex, springs, g, gs, 6.0, settings, SolverSettings())
     assert res.force.size > 256  # a long run: the tail is in use
     ds = rolling_dataset(res, info, "dynamic", 6.0, settings, None, "flat", "tread")
     assert float(ds["work"]) > 0.05 * float(ds["work_in"])
@@ -187,12 +187,12 @@ def test_slow_rolling_tends_to_the_relaxed_quasistatic_result():
     greens = greens_dataset(mat, shape, C, FS, 256, 4096)
     z1, ex = _flat_strip(*shape)
     springs = _flat_springs(shape, mat, stiffness=1.0e4)
-    g, gs, tail = _kernels(greens)
+    g, gs = _kernels(greens)
     assert greens.attrs["quasi_static_modulus"] == 2.5e7  # the relaxed modulus E_inf
     v = 1.0
     settings = RollingSettings(load=None, d0=5e-5, quasistatic_step=v / FS)
-    dyn, _ = solve_rolling(z1, ex, springs, g, gs, "dynamic", v, settings, SolverSettings(), FS, tail=tail)
-    qs, _ = solve_rolling(z1, ex, springs, None, gs, "quasistatic", v, settings, SolverSettings(), FS)
+    dyn, _ = solve_rolling(z1, ex, springs, g, gs, v, settings, SolverSettings())
+    qs, _ = solve_rolling(z1, ex, springs, gs, gs, v, settings, SolverSettings())
     assert dyn.force.size == qs.force.size > 1000
     np.testing.assert_allclose(dyn.x_c, qs.x_c, rtol=0, atol=1e-12)
     err = np.max(np.abs(dyn.force - qs.force)) / qs.force.max()
@@ -213,7 +213,7 @@ def test_rough_quasistatic_force_does_not_depend_on_speed():
     springs = SpringTable.checked(k, f, step, z1.size)
     gs = _static_kernel(shape, mat)
     settings = RollingSettings(load=100.0)
-    runs = [solve_rolling(z1, ex, springs, None, gs, "quasistatic", v, settings, SolverSettings(), FS)
+    runs = [solve_rolling(z1, ex, springs, gs, gs, v, settings, SolverSettings())
             for v in (5.0, 30.0)]
     (slow, i5), (fast, i30) = runs
     assert i5["d0"] == i30["d0"]
@@ -233,12 +233,11 @@ def test_dense_and_fft_rolling_agree(tread_greens):
     ex = (np.arange(shape[0]) + 0.5) * C
     k, f, step = punch_tables(z1.size, rng)
     springs = SpringTable.checked(k, f, step, z1.size)
-    g, gs, tail = _kernels(tread_greens)
+    g, gs = _kernels(tread_greens)
     settings = RollingSettings(load=None, d0=6e-5)
     out = {}
     for method in ("dense", "fft"):
-        out[method], _ = solve_rolling(z1, ex, springs, g, gs, "dynamic", 8.0, settings,
-                                       SolverSettings(method=method), FS, tail=tail)
+        out[method], _ = solve_rolling(z1, ex, springs, g, gs, 8.0, settings, SolverSettings(method=method))
     dense, fft = out["dense"], out["fft"]
     assert dense.force.size > 256
     assert np.max(np.abs(dense.force - fft.force)) <= 1e-10 * dense.force.max()
@@ -273,7 +272,7 @@ def test_aggregate_and_report_section():
     settings = RollingSettings(load=80.0, quasistatic_step=1e-4, steady_entry=0.0)
     runs = []
     for v in (5.0, 20.0):
-        res, info = solve_rolling(z1, ex, springs, None, gs, "quasistatic", v, settings, SolverSettings(), FS)
+        res, info = solve_rolling(z1, ex, springs, gs, gs, v, settings, SolverSettings())
         runs.append(rolling_dataset(res, info, "quasistatic", v, settings, None, "flat", "tread"))
     agg = aggregate_rolling(runs)
     from tyreroad.io import check_metadata
@@ -312,7 +311,7 @@ def test_static_indentation_carries_the_load():
     loading = RollingPass(z1, ex, 0.3, d0, [0.01])
     from tyreroad.rolling import _march
 
-    res = _march(loading, springs, gs[:, :, None], SolverSettings(), 1, None)
+    res = _march(loading, springs, gs, SolverSettings(), 1)
     assert res.force[0] == pytest.approx(60.0, rel=1e-9)
     with pytest.raises(ValueError, match="rolling.load"):
         static_indentation(z1, ex, springs, gs, 0.3, 1e9, 0.01, SolverSettings())

@@ -153,6 +153,7 @@ class RunRecorder:
     def __init__(self, n_steps: int, shape: tuple[int, int], tangent: bool = False):
         n_elem = shape[0] * shape[1]
         self.shape = shape
+        self.wants_tangent = bool(tangent)
         self.tangent_stiffness = np.zeros(n_steps) if tangent else None
         self.force = np.zeros((n_steps, n_elem))
         self.compression = np.zeros((n_steps, n_elem))
@@ -207,15 +208,14 @@ def march(
     history: History,
     settings: SolverSettings,
     recorder: RunRecorder,
-    linearise: bool = False,
 ) -> ContactResult:
     """Solve the contact step by step along a loading.
 
     Step n: b = free_compression(n) - h[n]; Newton from the previous solution shifted by the
     change of b (warm start; before step 0 the previous solution is the loading's rest state);
-    w[n] = h[n] + G0 F[n]; the history records F[n]. With ``linearise`` (a static kernel: every
-    step a static state) the substrate's tangent of each solved state goes to the recorder and,
-    as the predictor of its first Newton step, to the next step.
+    w[n] = h[n] + G0 F[n]; the history records F[n]. Where the recorder keeps tangents (a run on a
+    static kernel: every step a static state) the substrate's tangent of each solved state goes to
+    the recorder and, as the predictor of its first Newton step, to the next step.
 
     Parameters
     ----------
@@ -230,9 +230,8 @@ def march(
     settings : SolverSettings
         Tolerance and iteration limit.
     recorder : RunRecorder
-        Where the steps go (``store(n, step, w, tangent)`` and ``result(loading[, n])``).
-    linearise : bool
-        Linearise every solved state (``substrate.tangent``): quasi-static runs.
+        Where the steps go: ``wants_tangent`` (bool: linearise every solved state with
+        ``substrate.tangent``), ``store(n, step, w, tangent)`` and ``result(loading[, n])``.
 
     Returns
     -------
@@ -260,7 +259,7 @@ def march(
         b_prev, zeta = b, step.zeta
         history.record(n, step.force)
         w = h + substrate.instant(step.force)
-        tangent = substrate.tangent(step.stiffness) if linearise else None
+        tangent = substrate.tangent(step.stiffness) if recorder.wants_tangent else None
         recorder.store(n, step, w, tangent)
         finished = loading.done(n, step.force)
         if finished or n % report_every == 0 or n == n_steps - 1:
@@ -304,8 +303,9 @@ def run_loading_path(loading: Loading, springs, kernel: LayerKernel, settings: S
     threads : int
         numba threads and FFT workers.
     recorder : optional
-        What keeps the steps (``store(n, step, w, tangent)`` and ``result(loading[, n])``); default
-        a :class:`RunRecorder`, which for a static kernel also stores the tangent stiffness dF/dd.
+        What keeps the steps (``wants_tangent``, ``store(n, step, w, tangent)`` and
+        ``result(loading[, n])``); default a :class:`RunRecorder`, which for a static kernel also
+        stores the tangent stiffness dF/dd.
 
     Returns
     -------
@@ -319,7 +319,7 @@ def run_loading_path(loading: Loading, springs, kernel: LayerKernel, settings: S
     substrate, history = kernel.collaborators(loading.shape, settings, threads, loading.n_steps)
     if recorder is None:
         recorder = RunRecorder(loading.n_steps, loading.shape, tangent=kernel.static)
-    return march(loading, springs, substrate, history, settings, recorder, linearise=kernel.static)
+    return march(loading, springs, substrate, history, settings, recorder)
 
 
 def solve_path(

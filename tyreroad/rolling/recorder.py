@@ -80,7 +80,10 @@ class RollingRecorder:
         self.snapshot_steps = np.asarray(sorted(set(int(s) for s in snapshot_steps)), dtype=np.int64)
         self.snapshots = np.zeros((self.snapshot_steps.size, loading.shape[0] * loading.shape[1]))
 
-    def store(self, n: int, step, displacement: np.ndarray) -> None:
+    #: the march need not linearise the states of a pass (no tangent is kept)
+    wants_tangent = False
+
+    def store(self, n: int, step, displacement: np.ndarray, tangent=None) -> None:
         """Record the converged ``step`` (a :class:`tyreroad.newton.StepResult`) of step n."""
         f = step.force
         lever = self.loading.lever(n)

@@ -13,8 +13,8 @@ import xarray as xr
 from scipy.optimize import brentq
 
 from .. import checks
-from ..contact import MODES, _stage_inputs, run_loading_path
-from ..memory import TailModel
+from ..contact import MODES, run_loading_path
+from ..kernel import LayerKernel
 from ..solver import SolverSettings
 from ..springs import SpringTable
 from .geometry import RollingPass, contact_half_length, pass_limits, pass_positions
@@ -26,13 +26,13 @@ logger = logging.getLogger(__name__)
 __all__ = ["static_indentation", "solve_rolling", "solve_rolling_run"]
 
 
-def _march(loading: RollingPass, springs: SpringTable, kernel: np.ndarray, settings: SolverSettings,
-           threads: int, tail, snapshot_steps=()) -> RollingResult:
-    return run_loading_path(loading, springs, kernel, settings, threads, tail,
+def _march(loading: RollingPass, springs: SpringTable, kernel: LayerKernel, settings: SolverSettings,
+           threads: int, snapshot_steps=()) -> RollingResult:
+    return run_loading_path(loading, springs, kernel, settings, threads,
                             recorder=RollingRecorder(loading, snapshot_steps))
 
 
-def static_indentation(z1, element_x, springs: SpringTable, kernel_static, radius: float, load: float,
+def static_indentation(z1, element_x, springs: SpringTable, relaxed: LayerKernel, radius: float, load: float,
                        x_c: float, settings: SolverSettings, threads: int = 1) -> float:
     """d0 [m] at which the quasi-static contact centred at x_c carries ``load`` [N].
 
@@ -45,14 +45,15 @@ def static_indentation(z1, element_x, springs: SpringTable, kernel_static, radiu
         If the load needs an indentation beyond the spring tables.
     """
     load = checks.real("rolling.load", load, positive=True)
-    gs = np.asarray(kernel_static, dtype=float)[:, :, None]
+    if not relaxed.static:
+        raise ValueError(f"{relaxed.name}: the static indentation d0 needs the static kernel, got a dynamic one")
     # a two-point (linear) table extends exactly beyond its grid: bound the search by 1 mm then
     zeta_max = max(springs.zeta_step * (springs.stiffness.shape[-1] - 1), 1e-3)
 
     def force(d0):
         if d0 <= 0.0:
             return -load
-        res = _march(RollingPass(z1, element_x, radius, d0, [x_c]), springs, gs, settings, threads, None)
+        res = _march(RollingPass(z1, element_x, radius, d0, [x_c]), springs, relaxed, settings, threads)
         return float(res.force[0]) - load
 
     hi = 1e-5
@@ -70,15 +71,12 @@ def solve_rolling(
     z1,
     element_x,
     springs: SpringTable,
-    kernel,
-    kernel_static,
-    mode: str,
+    kernel: LayerKernel,
+    relaxed: LayerKernel,
     speed: float,
     settings: RollingSettings,
     solver: SolverSettings,
-    sample_rate: float,
     threads: int = 1,
-    tail: TailModel | None = None,
     d0: float | None = None,
 ) -> tuple[RollingResult, dict[str, float]]:
     """One rolling pass over the strip (SPEC 12), dynamic or quasi-static.
@@ -91,24 +89,19 @@ def solve_rolling(
         x of the element centres [m].
     springs : SpringTable
         One spring per element.
-    kernel : array_like
-        g[dx, dy, lag] [m/N] (dynamic runs).
-    kernel_static : array_like
-        g_static[dx, dy] [m/N] (quasi-static runs and the d0 solve).
-    mode : {"dynamic", "quasistatic"}
-        Run type.
+    kernel : tyreroad.kernel.LayerKernel
+        The pass's kernel: a dynamic one (time step 1 / its sample rate, with its memory: every
+        dynamic pass is longer than the kept lags) or a static one (a quasi-static pass).
+    relaxed : tyreroad.kernel.LayerKernel
+        The static kernel of the d0 solve.
     speed : float
         v [m/s].
     settings : RollingSettings
         Radius, load or d0, pass, quasi-static step, snapshots.
     solver : SolverSettings
         Newton tolerance, method (dense / FFT), long memory.
-    sample_rate : float
-        fs of the kernel [Hz]: the time step of dynamic runs.
     threads : int
         numba threads and FFT workers.
-    tail : TailModel, optional
-        The kernel beyond its kept lags (every dynamic pass is longer than 256 steps).
     d0 : float, optional
         The indentation, if already known (overrides the settings' load / d0).
 
@@ -127,17 +120,15 @@ def solve_rolling(
     """
     z1 = np.asarray(z1, dtype=float)
     ex = np.asarray(element_x, dtype=float)
-    if mode not in MODES:
-        raise ValueError(f"mode: expected one of {MODES}, got {mode!r}")
+    mode = "quasistatic" if kernel.static else "dynamic"
     c = float(ex[1] - ex[0]) if ex.size > 1 else 2.0 * float(ex[0])
-    gs = np.asarray(kernel_static, dtype=float)
     if d0 is None:
         d0 = settings.d0
     if d0 is None:
         centre = 0.5 * (ex[0] + ex[-1])
-        d0 = static_indentation(z1, ex, springs, gs, settings.radius, settings.load, centre, solver, threads)
+        d0 = static_indentation(z1, ex, springs, relaxed, settings.radius, settings.load, centre, solver, threads)
     x_start, x_end = pass_limits(settings, d0, ex, c)
-    time, x_c = pass_positions(mode, speed, x_start, x_end, sample_rate, settings.quasistatic_step)
+    time, x_c = pass_positions(mode, speed, x_start, x_end, kernel.sample_rate, settings.quasistatic_step)
     loading = RollingPass(z1, ex, settings.radius, d0, x_c, time, speed)
     for n, where in ((0, "x_start"), (loading.n_steps - 1, "x_end")):
         if loading.free_compression(n).max() > 0:
@@ -149,11 +140,7 @@ def solve_rolling(
     snaps = [int(np.argmin(np.abs(x_c - t))) for t in targets]
     logger.info("%s rolling pass at %g m/s: d0 = %.4e m, x_c from %.4g to %.4g m, %d steps", mode, speed, d0,
                 x_start, x_end, loading.n_steps)
-    if mode == "dynamic":
-        k = np.asarray(kernel, dtype=float)
-        result = _march(loading, springs, k, solver, threads, tail, snaps)
-    else:
-        result = _march(loading, springs, gs[:, :, None], solver, threads, None, snaps)
+    result = _march(loading, springs, kernel, solver, threads, snaps)
     if result.force[-1] > 0:
         raise ValueError(f"rolling.pass: the contact has not left the strip at x_end = {x_end:.6g} m "
                          f"({result.contact_count[-1]} elements still in contact); lengthen the pass")
@@ -166,11 +153,13 @@ def solve_rolling_run(surface: xr.Dataset, springs: xr.Dataset, greens: xr.Datas
                       settings: RollingSettings, solver: SolverSettings, threads: int = 1,
                       d0: float | None = None) -> tuple[RollingResult, dict[str, float]]:
     """:func:`solve_rolling` from the stage datasets (surface strip, its springs, the greens file)."""
-    z1, table = _stage_inputs(surface, springs, greens, mode)
+    if mode not in MODES:
+        raise ValueError(f"mode: expected one of {MODES}, got {mode!r}")
+    kernel = LayerKernel.from_greens(greens, mode)
+    relaxed = kernel if kernel.static else LayerKernel.from_greens(greens, "quasistatic")
+    kernel.check_element_size(surface.attrs.get("element_size"))
+    z1 = surface["z1"].transpose("ex", "ey").values
     ex = surface["element_x"].values
+    table = SpringTable.from_dataset(springs)
     spring_table = SpringTable.checked(table.stiffness, table.force, table.zeta_step, z1.size)
-    kernel = greens["g"].transpose("dx", "dy", "lag").values if mode == "dynamic" else None
-    g_static = greens["g_static"].transpose("dx", "dy").values
-    tail = TailModel.from_greens(greens) if mode == "dynamic" else None
-    return solve_rolling(z1, ex, spring_table, kernel, g_static, mode, speed, settings, solver,
-                         float(greens.attrs["sample_rate"]), threads, tail, d0)
+    return solve_rolling(z1, ex, spring_table, kernel, relaxed, speed, settings, solver, threads, d0)
