@@ -260,10 +260,11 @@ def contact_set_solve(g_cc: np.ndarray, s: np.ndarray):
 
     Cholesky for a real symmetric block (the layer's, positive definite), LU otherwise.
     """
+    symmetric = not np.iscomplexobj(g_cc) and np.array_equal(g_cc, g_cc.T)
     a = g_cc * s[:, None]
     a *= s[None, :]
     a[np.diag_indices_from(a)] += 1.0
-    if np.iscomplexobj(a) or not np.array_equal(a, a.T):
+    if not symmetric:
         y = np.linalg.solve(a, s.astype(a.dtype))
     else:  # symmetric positive definite (eigenvalues >= 1 for a positive definite G)
         y = scipy.linalg.solve(a, s, assume_a="pos", check_finite=False)
