@@ -1,6 +1,7 @@
 """Config validation: the JSON schema and the cross-reference checks, before any job runs."""
 
 import copy
+import re
 import shutil
 import subprocess
 import sys
@@ -11,6 +12,7 @@ import yaml
 from snakemake.utils import validate
 
 from tyreroad import config as C
+from tyreroad import provenance as P
 from tyreroad.config import ConfigError, check_references, load_config, merge
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -152,7 +154,7 @@ def test_overlays_write_to_their_own_results_dirs():
 
 
 # the sensitivity sweep's adapters call tyreroad.sensitivity directly, not a pipeline.run_* function
-@pytest.mark.parametrize("stage", sorted(set(C.STAGE_MODULES) - {"sensitivity"}))
+@pytest.mark.parametrize("stage", sorted(set(P.STAGE_MODULES) - {"sensitivity"}))
 def test_stage_map_covers_what_the_stage_function_imports(stage):
     """Every module a pipeline.run_<stage> function imports is an entry of STAGE_MODULES[stage]."""
     import ast
@@ -171,23 +173,47 @@ def test_stage_map_covers_what_the_stage_function_imports(stage):
                 imported.add(sub.module)
             elif isinstance(sub, ast.Call) and isinstance(sub.func, ast.Name) and sub.func.id in helpers:
                 todo.append(helpers[sub.func.id])
-    assert imported and imported <= set(C.stage_modules(stage)), imported - set(C.stage_modules(stage))
+    assert imported and imported <= set(P.stage_modules(stage)), imported - set(P.stage_modules(stage))
 
 
 def test_stage_modules_follow_imports_and_hash_the_source(tmp_path):
     import shutil
 
-    assert set(C.stage_modules("prepare_surface")) >= {"surface", "texture", "scans", "io", "pipeline"}
-    assert "greens" not in C.stage_modules("prepare_surface")
-    assert {"greens", "layer", "material", "reference.love"} <= set(C.stage_modules("greens"))
-    assert "greens" not in C.stage_modules("contact")  # contact reads the greens file, not the code
+    assert set(P.stage_modules("prepare_surface")) >= {"surface", "texture", "scans", "io", "pipeline"}
+    assert "greens" not in P.stage_modules("prepare_surface")
+    assert {"greens", "layer", "material", "reference.love"} <= set(P.stage_modules("greens"))
+    assert "greens" not in P.stage_modules("contact")  # contact reads the greens file, not the code
     pkg = tmp_path / "tyreroad"
     shutil.copytree(ROOT / "tyreroad", pkg, ignore=shutil.ignore_patterns("__pycache__"))
-    before = {s: C.source_hash(s, pkg) for s in C.STAGE_MODULES}
-    assert before == {s: C.source_hash(s) for s in C.STAGE_MODULES}  # the location does not matter
+    before = {s: P.source_hash(s, pkg) for s in P.STAGE_MODULES}
+    assert before == {s: P.source_hash(s) for s in P.STAGE_MODULES}  # the location does not matter
     (pkg / "greens.py").write_text((pkg / "greens.py").read_text() + "\n# a change\n")
-    after = {s: C.source_hash(s, pkg) for s in C.STAGE_MODULES}
+    after = {s: P.source_hash(s, pkg) for s in P.STAGE_MODULES}
     # the sweep computes its points' Green's functions itself; K*(f) evaluates the element FRF
     assert {s for s in before if before[s] != after[s]} == {"greens", "sensitivity", "stiffness_spectrum"}
     (pkg / "io.py").write_text((pkg / "io.py").read_text() + "\n# a change\n")
-    assert all(C.source_hash(s, pkg) != after[s] for s in C.STAGE_MODULES)  # every stage writes through io
+    assert all(P.source_hash(s, pkg) != after[s] for s in P.STAGE_MODULES)  # every stage writes through io
+
+
+def test_a_stage_entry_naming_a_subpackage_hashes_all_its_modules(tmp_path):
+    """rolling.py split into a folder: every module of the folder is code of the rolling stages,
+    also one that its __init__ does not import; an imported subpackage (plots) is not expanded."""
+    import shutil
+
+    pkg = tmp_path / "tyreroad"
+    shutil.copytree(ROOT / "tyreroad", pkg, ignore=shutil.ignore_patterns("__pycache__"))
+    assert "plots.study" not in P.stage_modules("rolling_figures", pkg)  # plots.rolling only, not its siblings
+    if (pkg / "rolling.py").is_file():  # today's layout: make it a package (its imports one level up)
+        (pkg / "rolling").mkdir()
+        text = re.sub(r"^(\s*)from \.", r"\1from ..", (pkg / "rolling.py").read_text(), flags=re.M)
+        (pkg / "rolling" / "__init__.py").write_text(text)
+        (pkg / "rolling.py").unlink()
+    (pkg / "rolling" / "spare.py").write_text('"""Not imported by rolling/__init__.py."""\nX = 1\n')
+    mods = P.stage_modules("rolling", pkg)
+    assert {"rolling", "rolling.spare", "contact"} <= set(mods)
+    assert "rolling/spare.py" in P.stage_files("rolling", pkg)
+    before = {s: P.source_hash(s, pkg) for s in P.STAGE_MODULES}
+    (pkg / "rolling" / "spare.py").write_text('"""Not imported by rolling/__init__.py."""\nX = 2\n')
+    after = {s: P.source_hash(s, pkg) for s in P.STAGE_MODULES}
+    changed = {s for s in before if before[s] != after[s]}
+    assert changed == {"rolling", "rolling_study", "rolling_report"}

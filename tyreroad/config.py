@@ -18,17 +18,13 @@ Snakemake runs these checks while it plans (``snakemake -n`` included), from
 Every failure raises :class:`ConfigError` with one short paragraph: the key path (or file), the
 value, and what is expected.
 
-The module also maps each workflow stage to the tyreroad modules it runs
-(:data:`STAGE_MODULES`, :func:`stage_modules`) and hashes their source (:func:`source_hash`); the
-rules pass that hash as a param so that a change in the package re-plans exactly the stages whose
-code changed.
+Which source each stage runs and its hash (the rules' ``code`` param) live in
+:mod:`tyreroad.provenance`.
 """
 
 from __future__ import annotations
 
-import ast
 import copy
-import hashlib
 import math
 import re
 from functools import lru_cache
@@ -47,9 +43,6 @@ __all__ = [
     "check_references",
     "check_config",
     "check_job",
-    "STAGE_MODULES",
-    "stage_modules",
-    "source_hash",
 ]
 
 
@@ -656,124 +649,3 @@ def check_job(config: Mapping[str, Any], target: str, wildcards: Mapping[str, st
                 f"{study_surface!r} ({c_greens:g} m), for which the Green's functions are computed; expected equal "
                 f"element sizes"
             )
-
-
-# ---------------------------------------------------------------------------------------------
-# Which code each stage runs
-# ---------------------------------------------------------------------------------------------
-#: Entry modules of each workflow stage (rule): the modules its ``tyreroad.pipeline.run_*``
-#: function imports. :func:`stage_modules` adds everything these import, recursively.
-#: A new stage, or a stage function that imports a new module, extends this map.
-STAGE_MODULES: dict[str, tuple[str, ...]] = {
-    "prepare_surface": ("log", "pipeline", "surface", "plots.surface"),
-    "element_springs": ("log", "pipeline", "springs"),
-    "springs_figure": ("log", "pipeline", "plots.springs"),
-    "greens": ("log", "pipeline", "greens", "material"),
-    "greens_figures": ("log", "pipeline", "plots.greens"),
-    "contact": ("log", "pipeline", "contact", "material"),
-    "study": ("log", "pipeline", "study"),
-    "study_figures": ("log", "pipeline", "plots.study", "study"),
-    "report": ("log", "pipeline", "report", "study", "hysteresis", "stiffness"),
-    "loading": ("log", "pipeline", "contact", "material", "loading", "hysteresis"),
-    "loading_study": ("log", "pipeline", "hysteresis"),
-    "hysteresis_figure": ("log", "pipeline", "plots.hysteresis"),
-    # stiffness imports the spectrum's helpers (greens' element FRF, the contact solve) inside its
-    # functions, so that the contact stage, which only uses its tangent, does not depend on greens.py
-    "stiffness_spectrum": ("log", "pipeline", "contact", "material", "stiffness", "greens", "loading", "springs"),
-    "stiffness_figure": ("log", "pipeline", "plots.stiffness", "stiffness"),
-    "sensitivity": ("log", "sensitivity"),
-    "rolling": ("log", "pipeline", "contact", "rolling"),
-    "rolling_study": ("log", "pipeline", "rolling"),
-    "rolling_figures": ("log", "pipeline", "plots.rolling"),
-    "rolling_report": ("log", "pipeline", "rolling", "report"),
-}
-
-_PACKAGE_DIR = Path(__file__).resolve().parent
-#: Modules whose function-level imports are lazy dispatch, not code of every stage.
-_LAZY_DISPATCH = {"__init__", "pipeline", "stiffness"}
-
-
-def _module_file(module: str, package_dir: Path) -> Path | None:
-    base = package_dir.joinpath(*module.split("."))
-    for cand in (base.with_suffix(".py"), base / "__init__.py"):
-        if cand.is_file():
-            return cand
-    return None
-
-
-def _imports_of(module: str, package_dir: Path, top_level_only: bool) -> set[str]:
-    """tyreroad modules imported by ``module`` (relative to the package), read from its source."""
-    path = _module_file(module, package_dir)
-    return set(_imports_in_source(module, package_dir, path.stat().st_mtime_ns, top_level_only))
-
-
-@lru_cache(maxsize=256)
-def _imports_in_source(module: str, package_dir: Path, mtime_ns: int, top_level_only: bool) -> frozenset[str]:
-    path = _module_file(module, package_dir)
-    tree = ast.parse(path.read_text(), filename=str(path))
-    is_pkg = path.name == "__init__.py"
-    if module == "__init__":
-        parent: list[str] = []
-    else:
-        parent = module.split(".") if is_pkg else module.split(".")[:-1]
-    nodes = tree.body if top_level_only else list(ast.walk(tree))
-    found: set[str] = set()
-    for node in nodes:
-        if isinstance(node, ast.Import):
-            for alias in node.names:
-                if alias.name == "tyreroad" or alias.name.startswith("tyreroad."):
-                    found.add(alias.name[len("tyreroad."):] if "." in alias.name else "__init__")
-        elif isinstance(node, ast.ImportFrom):
-            if node.level:
-                base = parent[: len(parent) - (node.level - 1)] if node.level > 1 else parent
-                mod = ".".join(base + ([node.module] if node.module else []))
-            elif node.module and (node.module == "tyreroad" or node.module.startswith("tyreroad.")):
-                mod = node.module[len("tyreroad."):] if "." in node.module else ""
-            else:
-                continue
-            for alias in node.names:
-                sub = f"{mod}.{alias.name}" if mod else alias.name
-                if _module_file(sub, package_dir) is not None:
-                    found.add(sub)
-                elif mod:
-                    found.add(mod)
-                else:
-                    found.add("__init__")
-    return frozenset(found)
-
-
-def stage_modules(stage: str, package_dir: str | Path | None = None) -> list[str]:
-    """All tyreroad modules a stage runs: its entry modules and what they import, recursively.
-
-    Imports anywhere in a module count (also those inside functions), except for
-    ``tyreroad.pipeline`` and ``tyreroad/__init__.py``, whose functions import other modules
-    lazily on behalf of one stage or of a user: only their module-level imports count, the
-    per-stage ones are the entries of :data:`STAGE_MODULES`. Package ``__init__`` files on the way
-    are included (Python runs them on import).
-    """
-    package_dir = Path(package_dir) if package_dir is not None else _PACKAGE_DIR
-    if stage not in STAGE_MODULES:
-        raise KeyError(f"unknown stage {stage!r}; expected one of {sorted(STAGE_MODULES)}")
-    todo = ["__init__", *STAGE_MODULES[stage]]
-    seen: set[str] = set()
-    while todo:
-        mod = todo.pop()
-        if mod in seen:
-            continue
-        seen.add(mod)
-        parts = mod.split(".")
-        for k in range(1, len(parts)):
-            todo.append(".".join(parts[:k]))  # the subpackage's __init__
-        todo.extend(_imports_of(mod, package_dir, top_level_only=mod in _LAZY_DISPATCH) - seen)
-    return sorted(seen)
-
-
-def source_hash(stage: str, package_dir: str | Path | None = None) -> str:
-    """SHA-256 (first 16 hex digits) of the source of every tyreroad module the stage runs."""
-    package_dir = Path(package_dir) if package_dir is not None else _PACKAGE_DIR
-    digest = hashlib.sha256()
-    for mod in stage_modules(stage, package_dir):
-        path = _module_file(mod, package_dir)
-        digest.update(str(path.relative_to(package_dir)).encode() + b"\0")
-        digest.update(path.read_bytes() + b"\0")
-    return digest.hexdigest()[:16]

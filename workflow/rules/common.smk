@@ -8,13 +8,12 @@ from snakemake.utils import min_version, validate
 min_version("8.10")
 
 from tyreroad.config import (
-    STAGE_MODULES,
     check_config,
     check_config_files,
     check_job,
-    source_hash,
     validate_schema,
 )
+from tyreroad.provenance import STAGE_MODULES, source_hash
 
 check_config_files(workflow.configfiles)  # duplicate keys are errors (YAML keeps the last silently)
 validate_schema(config, Path(workflow.current_basedir) / "../schemas/config.schema.yaml")
@@ -51,7 +50,7 @@ R = config["results_dir"]
 STUDY = config["study"]
 STUDY_SURFACE = STUDY["surface"]
 
-# Hash of the tyreroad source each stage runs (tyreroad.config.STAGE_MODULES): a rule's params
+# Hash of the tyreroad source each stage runs (tyreroad.provenance.STAGE_MODULES): a rule's params
 # carry it, so a change in the package re-plans exactly the stages whose code changed.
 SOURCE = {stage: source_hash(stage) for stage in STAGE_MODULES}
 
