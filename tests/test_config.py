@@ -1,6 +1,7 @@
 """Config validation: the JSON schema and the cross-reference checks, before any job runs."""
 
 import copy
+import dataclasses
 import re
 import shutil
 import subprocess
@@ -14,6 +15,10 @@ from snakemake.utils import validate
 from tyreroad import config as C
 from tyreroad import provenance as P
 from tyreroad.config import ConfigError, check_references, load_config, merge
+from tyreroad.greens import GreensSettings
+from tyreroad.material import material_from_config
+from tyreroad.solver import SolverSettings
+from tyreroad.springs import SpringModel
 
 ROOT = Path(__file__).resolve().parents[1]
 SCHEMA = str(ROOT / "workflow" / "schemas" / "config.schema.yaml")
@@ -102,20 +107,45 @@ def test_bad_config_stops_snakemake_before_any_job(tmp_path):
     assert not (tmp_path / "results").exists()
 
 
-def test_schema_defaults_are_accepted_by_the_package(config):
-    """Snakemake inserts schema defaults into the config; the package must accept the result."""
-    from tyreroad.contact import SolverSettings
-    from tyreroad.greens import GreensSettings
-    from tyreroad.material import material_from_config
-    from tyreroad.springs import SpringModel
+@pytest.mark.parametrize("section, cls", [("solver", SolverSettings), ("greens", GreensSettings),
+                                          ("springs", SpringModel)])
+def test_schema_defaults_are_the_package_defaults(config, section, cls):
+    """Each default of these sections has one value: the schema states the settings class's own.
 
+    Snakemake inserts the schema's defaults into the config; a section given empty must build the
+    same settings as the class's defaults (1e-5 m for solver.quasistatic_step, say).
+    """
+    props = yaml.safe_load(Path(SCHEMA).read_text())["properties"][section]["properties"]
+    fields = {f.name: f.default for f in dataclasses.fields(cls)}
+    assert set(props) == set(fields)
+    assert {k: v.get("default") for k, v in props.items()} == fields
+    cfg = copy.deepcopy(config)
+    cfg[section] = {}
+    validate(cfg, SCHEMA)
+    assert cfg[section] == fields
+    assert cls.from_config(cfg[section]) == cls()
+
+
+def test_default_study_settings_build_from_the_validated_config(config):
     cfg = copy.deepcopy(config)
     validate(cfg, SCHEMA)
-    for name in cfg["materials"]:
-        material_from_config(name, cfg["materials"])
-    SpringModel.from_config(cfg["springs"])
-    GreensSettings.from_config(cfg["greens"])
-    SolverSettings.from_config(cfg["solver"])
+    solver = SolverSettings.from_config(cfg["solver"])
+    assert solver.quasistatic_step == 1e-5 and solver.d_max == 2.5e-4
+    assert GreensSettings.from_config(cfg["greens"]).n_lags == 256
+    assert SpringModel.from_config(cfg["springs"]).zeta_step == 1e-6
+    assert [material_from_config(name, cfg["materials"]).thickness for name in cfg["materials"]] == [0.01] * 5
+
+
+def test_planning_takes_the_quasistatic_step_default_from_the_solver():
+    """Without solver.quasistatic_step, the grid check uses SolverSettings' 1e-5 m: d_max = 8e-6 m is
+    less than one step (the 1e-6 m that config.py used to assume would have let it through)."""
+    cfg = load_config(ROOT / "config" / "config.yaml")
+    cfg["solver"] = {"d_max": 8.0e-6}
+    with pytest.raises(ConfigError, match=r"^solver\.quasistatic_step = 1e-05: expected at most solver\.d_max / 2"):
+        C._check_solver_and_study(cfg)
+    cfg["solver"]["quasistatic_step"] = 4.0e-6  # 0, 4e-6, 8e-6: the 3 points a run needs
+    with pytest.raises(ConfigError, match=r"^study"):  # passes the grid check, fails on the study's own range
+        C._check_solver_and_study(cfg)
 
 
 def test_duplicate_key_is_an_error_naming_key_file_and_line(tmp_path):

@@ -25,13 +25,25 @@ Which source each stage runs and its hash (the rules' ``code`` param) live in
 from __future__ import annotations
 
 import copy
+import difflib
 import math
 import re
 from functools import lru_cache
 from pathlib import Path
 from typing import Any, Iterable, Mapping, Sequence
 
+import jsonschema
 import yaml
+
+from . import scans
+from . import surface as S
+from .greens import GreensSettings
+from .loading import LoadingPreset, constant_acceleration_steps, uniform_grid_steps
+from .material import material_from_config
+from .rolling import RollingSettings
+from .solver import SolverSettings
+from .springs import SpringModel
+from .study import StudySettings, case_label
 
 __all__ = [
     "ConfigError",
@@ -168,8 +180,6 @@ def validate_schema(config: Mapping[str, Any], schema_path: str | Path) -> None:
     description from the schema (which states the unit and the default). Defaults are not
     inserted here (Snakemake's ``validate`` does that afterwards).
     """
-    import jsonschema
-
     schema = _load_schema(str(schema_path))
     validator_cls = jsonschema.validators.validator_for(schema)
     errors = list(validator_cls(schema).iter_errors(config))
@@ -178,8 +188,6 @@ def validate_schema(config: Mapping[str, Any], schema_path: str | Path) -> None:
     err = jsonschema.exceptions.best_match(errors)
     path = list(err.absolute_path)
     if err.validator == "additionalProperties":
-        import difflib
-
         known = sorted(_schema_at(schema, path).get("properties", {}))
         extra = sorted(set(err.instance) - set(known))
         close = difflib.get_close_matches(str(extra[0]), known, n=1) if extra else []
@@ -273,8 +281,6 @@ def check_references(config: Mapping[str, Any]) -> None:
                 raise ConfigError(
                     f"study.loadings.{preset}[{i}]: {name!r} is not a preset in materials (have: {sorted(materials)})"
                 )
-    from .loading import LoadingPreset
-
     for name, spec in loadings.items():
         if "_" in name:
             raise ConfigError(f"loadings.{name}: preset names may not contain '_' (it separates wildcards)")
@@ -283,7 +289,7 @@ def check_references(config: Mapping[str, Any]) -> None:
         except ValueError as err:
             raise ConfigError(str(err)) from None
     lo, hi = study.get("saturation_range", [1.8e-4, 2.5e-4])
-    d_max = config.get("solver", {}).get("d_max", 2.5e-4)
+    d_max = _d_max(config)
     if not lo < hi <= d_max * (1 + 1e-12):
         raise ConfigError(
             f"study.saturation_range = [{lo:g}, {hi:g}]: expected lo < hi <= solver.d_max = {d_max:g} m"
@@ -296,6 +302,22 @@ SCAN_READ_LIMIT = 64 * 2**20
 
 #: Minimum number of steps of a run: the study differentiates F(d) with a 3-point rule.
 MIN_RUN_STEPS = 3
+
+#: Defaults of the sections whose keys the checks read, from the package's settings classes (the
+#: one place of each default; the schema states the same values, tests/test_config.py checks it).
+_SOLVER = SolverSettings()
+_GREENS = GreensSettings()
+_SPRINGS = SpringModel()
+
+
+def _d_max(config: Mapping[str, Any]) -> float:
+    """``solver.d_max`` [m], or its default."""
+    return float(config.get("solver", {}).get("d_max", _SOLVER.d_max))
+
+
+def _sample_rate(config: Mapping[str, Any]) -> float:
+    """``greens.sample_rate`` [Hz], or its default."""
+    return float(config.get("greens", {}).get("sample_rate", _GREENS.sample_rate))
 
 
 def _check_case_collisions(section: str, names: Iterable[str]) -> None:
@@ -320,25 +342,23 @@ def _check_results_dir(config: Mapping[str, Any]) -> None:
 
 
 def _check_solver_and_study(config: Mapping[str, Any]) -> None:
-    from .study import StudySettings, case_label
-
     solver = config.get("solver", {})
     study = config["study"]
     greens = config.get("greens", {})
     springs = config.get("springs", {})
-    d_max = float(solver.get("d_max", 2.5e-4))
+    d_max = _d_max(config)
 
     # Green's functions: FFT size and kept lags
-    n_fft = greens.get("n_fft", 4096)
+    n_fft = greens.get("n_fft", _GREENS.n_fft)
     if isinstance(n_fft, int) and (n_fft < 4096 or n_fft & (n_fft - 1)):
         raise _fail("greens.n_fft", n_fft, "a power of two >= 4096 (e.g. 4096, 8192, 16384)")
-    n_lags = greens.get("n_lags", 256)
+    n_lags = greens.get("n_lags", _GREENS.n_lags)
     if isinstance(n_lags, int) and isinstance(n_fft, int) and n_lags > n_fft // 2:
         raise _fail("greens.n_lags", n_lags, f"at most greens.n_fft / 2 = {n_fft // 2}")
 
     # springs: the table grid
-    zeta_max = float(springs.get("zeta_max", 1e-3))
-    zeta_step = float(springs.get("zeta_step", 1e-6))
+    zeta_max = float(springs.get("zeta_max", _SPRINGS.zeta_max))
+    zeta_step = float(springs.get("zeta_step", _SPRINGS.zeta_step))
     ratio = zeta_max / zeta_step
     if abs(ratio - round(ratio)) > 1e-6 * ratio:
         raise _fail(
@@ -353,8 +373,6 @@ def _check_solver_and_study(config: Mapping[str, Any]) -> None:
             f"at most springs.zeta_max = {zeta_max:g} m: an element's compression reaches d_max and the "
             f"spring table ends at zeta_max",
         )
-    from .material import material_from_config
-
     for name in study.get("materials", []):
         try:
             h = material_from_config(name, config["materials"]).thickness
@@ -367,15 +385,15 @@ def _check_solver_and_study(config: Mapping[str, Any]) -> None:
                 f"model is linear (small strain)",
             )
     # quasi-static grid
-    qs = float(solver.get("quasistatic_step", 1e-6))
-    if math.ceil(d_max / qs * (1 - 1e-12)) < MIN_RUN_STEPS - 1 or qs > d_max:
+    qs = float(solver.get("quasistatic_step", _SOLVER.quasistatic_step))
+    if qs > d_max or uniform_grid_steps(d_max, qs) < MIN_RUN_STEPS:
         raise _fail(
             "solver.quasistatic_step", qs,
             f"at most solver.d_max / {MIN_RUN_STEPS - 1} = {d_max / (MIN_RUN_STEPS - 1):g} m (a run needs "
             f"{MIN_RUN_STEPS} indentation points)",
         )
     # dynamic runs: enough time steps, unique file labels
-    fs = float(greens.get("sample_rate", 51200.0))
+    fs = _sample_rate(config)
     labels: dict[str, int] = {}
     for i, a in enumerate(study.get("accelerations", [])):
         label = case_label("", "dynamic", a).split("/")[-1]
@@ -387,7 +405,7 @@ def _check_solver_and_study(config: Mapping[str, Any]) -> None:
                 f"in their first 6 significant digits"
             )
         labels[label] = i
-        steps = math.ceil(fs * math.sqrt(2.0 * d_max / float(a)) * (1.0 - 1e-12))
+        steps = constant_acceleration_steps(fs, float(a), d_max) - 1  # time steps after t = 0
         if steps < MIN_RUN_STEPS:
             a_max = 2.0 * d_max * (fs / MIN_RUN_STEPS) ** 2
             raise _fail(
@@ -404,11 +422,6 @@ def _check_solver_and_study(config: Mapping[str, Any]) -> None:
 
 def _check_package_settings(config: Mapping[str, Any]) -> None:
     """Build every settings object the jobs build, so that their checks run now."""
-    from .contact import SolverSettings
-    from .greens import GreensSettings
-    from .material import material_from_config
-    from .springs import SpringModel
-
     for section, build in (("greens", GreensSettings.from_config), ("springs", SpringModel.from_config),
                            ("solver", SolverSettings.from_config)):
         try:
@@ -432,9 +445,6 @@ def surface_plan(name: str, spec: Mapping[str, Any], base_dir: str | Path = ".")
     dict
         ``element_size`` [m], ``patch_elements``, ``scan`` (header info or None).
     """
-    from . import scans
-    from . import surface as S
-
     try:
         c = S._common(name, spec)
         generator = spec.get("generator")
@@ -552,8 +562,6 @@ def _check_rolling(config: Mapping[str, Any]) -> None:
     ref = rolling.get("reference_material")
     if ref is not None and ref not in names:
         raise ConfigError(f"rolling.reference_material = {ref!r}: expected one of rolling.materials {list(names)}")
-    from .rolling import RollingSettings
-
     try:
         RollingSettings.from_config(rolling)
     except ValueError as exc:
@@ -621,18 +629,15 @@ def check_job(config: Mapping[str, Any], target: str, wildcards: Mapping[str, st
                 f"'{{:g}}' (e.g. dynamic_500.nc)"
             )
         if mode == "dynamic":
-            fs = float(config.get("greens", {}).get("sample_rate", 51200.0))
-            d_max = float(config.get("solver", {}).get("d_max", 2.5e-4))
-            if math.ceil(fs * math.sqrt(2.0 * d_max / a) * (1.0 - 1e-12)) < MIN_RUN_STEPS:
+            fs, d_max = _sample_rate(config), _d_max(config)
+            if constant_acceleration_steps(fs, a, d_max) - 1 < MIN_RUN_STEPS:  # time steps after t = 0
                 raise ConfigError(
                     f"{target}: acceleration {a:g} m/s^2 reaches solver.d_max in fewer than {MIN_RUN_STEPS} time "
                     f"steps at greens.sample_rate = {fs:g} Hz; expected at most "
                     f"{2.0 * d_max * (fs / MIN_RUN_STEPS) ** 2:.4g} m/s^2"
                 )
     if material is not None and mode is not None:
-        from .material import material_from_config
-
-        d_max = float(config.get("solver", {}).get("d_max", 2.5e-4))
+        d_max = _d_max(config)
         h = material_from_config(material, materials).thickness
         if d_max >= 0.5 * h:
             raise ConfigError(
