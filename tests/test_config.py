@@ -247,3 +247,53 @@ def test_a_stage_entry_naming_a_subpackage_hashes_all_its_modules(tmp_path):
     after = {s: P.source_hash(s, pkg) for s in P.STAGE_MODULES}
     changed = {s for s in before if before[s] != after[s]}
     assert changed == {"rolling", "rolling_study", "rolling_report"}
+
+
+def _validated(*overlays):
+    cfg = load_config(ROOT / "config" / "config.yaml")
+    for overlay in overlays:
+        cfg = merge(cfg, overlay)
+    validate(cfg, SCHEMA)
+    return cfg
+
+
+def test_stiffness_spectrum_is_checked_with_the_config():
+    """Moved from workflow/rules/stiffness.smk: the section and its grid below fs / 2."""
+    C._check_stiffness_spectrum(_validated())
+    with pytest.raises(ConfigError, match=r"^stiffness_spectrum: frequency grid: f_min = 30000 Hz must be below "
+                                          r"f_max = fs/2 = 25600 Hz"):
+        C.check_config(_validated({"stiffness_spectrum": {"f_min": 3.0e4}}), ROOT)  # fs = 51200 Hz
+    with pytest.raises(ConfigError, match=r"^stiffness_spectrum\.figure_preload: expected one of the preloads"):
+        C._check_stiffness_spectrum(_validated({"stiffness_spectrum": {"figure_preload": 3.3e-5}}))
+
+
+def test_sensitivity_points_are_checked_and_returned():
+    """Moved from workflow/rules/sensitivity.smk: the section, each point's material and surface."""
+    cfg = _validated()
+    points = C.sensitivity_points(cfg, SCHEMA)
+    assert len(points) == 10 and points["seed2"]["surface"] == {"seed": 20140102}
+    assert C.sensitivity_points({k: v for k, v in cfg.items() if k != "sensitivity"}, SCHEMA) == {}
+    bad_surface = copy.deepcopy(cfg)
+    bad_surface["sensitivity"]["points"]["seed2"]["surface"] = {"seed": -3}
+    with pytest.raises(ConfigError, match=r"^sensitivity\.points\.seed2\.surface\.seed = -3: "):
+        C.sensitivity_points(bad_surface, SCHEMA)
+    unknown = copy.deepcopy(cfg)
+    unknown["sensitivity"]["points"]["seed2"]["surface"] = {"sead": 1}
+    with pytest.raises(ConfigError, match=r"^sensitivity\.points\.seed2\.surface\.sead: unknown key; did you mean 'seed'"):
+        C.sensitivity_points(unknown, SCHEMA)
+    bad_material = copy.deepcopy(cfg)
+    bad_material["sensitivity"]["points"]["alpha0.4"]["material"] = {"alpha": 1.5}
+    with pytest.raises(ConfigError, match=r"^sensitivity\.points\.alpha0\.4\.material"):
+        C.sensitivity_points(bad_material, SCHEMA)
+
+
+def test_rolling_materials_default_to_the_study_and_its_first():
+    cfg = _validated()
+    assert C.rolling_materials(cfg) == (cfg["rolling"]["materials"], "tread")
+    del cfg["rolling"]["materials"], cfg["rolling"]["reference_material"]
+    assert C.rolling_materials(cfg) == (cfg["study"]["materials"], cfg["study"]["materials"][0])
+    # the schema's defaults of the study keys are inserted by validation (common.smk reads them)
+    flat = _validated({"rolling": {"surfaces": ["iso10844-strip"], "speeds": [5, 20]}})
+    flat["rolling"].pop("quasistatic_speeds")
+    validate(flat, SCHEMA)
+    assert flat["rolling"]["quasistatic_speeds"] == [5, 30]

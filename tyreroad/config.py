@@ -10,8 +10,11 @@ Snakemake runs these checks while it plans (``snakemake -n`` included), from
 3. :func:`check_config`: the rules a schema cannot express: cross-references between sections,
    FFT sizes and lag counts, grids that must divide each other, file-name labels that must be
    unique, ``solver.d_max`` against the spring table and the tread thickness, every surface preset
-   as the surface stage will parse it, and every scan file (exists, not empty, header readable,
-   crop window and patch inside the scan).
+   as the surface stage will parse it, every scan file (exists, not empty, header readable,
+   crop window and patch inside the scan), the rolling section and the K*(f) frequency grid
+   against the kernel's sample rate.
+   :func:`sensitivity_points` (from ``workflow/rules/sensitivity.smk``): the sweep's section, each
+   point's material and each point's surface preset against the schema.
 4. :func:`check_job`: per job of the plan, the presets named by its wildcards (a requested target
    such as ``results/surface/foo.nc`` names a preset ``foo`` that must exist).
 
@@ -41,8 +44,10 @@ from .greens import GreensSettings
 from .loading import LoadingPreset, constant_acceleration_steps, uniform_grid_steps
 from .material import material_from_config
 from .rolling import RollingSettings
+from .sensitivity import planned_points, point_surface_spec
 from .solver import SolverSettings
 from .springs import SpringModel
+from .stiffness import SpectrumSettings
 from .study import StudySettings, case_label
 
 __all__ = [
@@ -55,6 +60,8 @@ __all__ = [
     "check_references",
     "check_config",
     "check_job",
+    "sensitivity_points",
+    "rolling_materials",
 ]
 
 
@@ -229,7 +236,7 @@ def _fail(key: str, value: Any, expected: str) -> ConfigError:
 def _wrap(exc: Exception, key: str) -> ConfigError:
     """A package ValueError as a ConfigError; prefix the key path unless the message names one."""
     msg = str(exc).strip("'\"")
-    if re.match(r"^(surfaces|materials|springs|greens|solver|study|results_dir)\b", msg) or msg.startswith("/"):
+    if re.match(r"^(surfaces|materials|springs|greens|solver|study|results_dir|rolling|loadings|sensitivity|stiffness_spectrum)\b", msg) or msg.startswith("/"):
         return ConfigError(msg)
     return ConfigError(f"{key}: {msg}")
 
@@ -521,7 +528,8 @@ def check_config(config: Mapping[str, Any], base_dir: str | Path = ".") -> None:
     Parameters
     ----------
     config : mapping
-        The merged config (after :func:`validate_schema`; schema defaults may be inserted or not).
+        The merged config (after :func:`validate_schema`; schema defaults may be inserted or not,
+        except that a ``rolling`` section needs its ``surfaces``, which validation inserts).
     base_dir : path-like
         Directory against which relative scan paths are resolved (Snakemake's working directory).
 
@@ -539,6 +547,68 @@ def check_config(config: Mapping[str, Any], base_dir: str | Path = ".") -> None:
     for name, spec in config["surfaces"].items():
         surface_plan(name, spec, base_dir)
     _check_rolling(config)
+    _check_stiffness_spectrum(config)
+
+
+def _check_stiffness_spectrum(config: Mapping[str, Any]) -> None:
+    """The ``stiffness_spectrum`` section and its frequency grid against ``greens.sample_rate`` (the
+    grid must lie below fs / 2), as :class:`tyreroad.stiffness.SpectrumSettings` builds them in the job."""
+    try:
+        SpectrumSettings.from_config(config.get("stiffness_spectrum", {})).frequencies(_sample_rate(config))
+    except (ValueError, TypeError) as exc:
+        raise _wrap(exc, "stiffness_spectrum") from None
+
+
+def sensitivity_points(config: Mapping[str, Any], schema_path: str | Path) -> dict[str, dict[str, Any]]:
+    """The sensitivity sweep's points, checked at planning time ({} without a ``sensitivity`` section).
+
+    Checks the section (:class:`tyreroad.sensitivity.SensitivitySettings`), every point's material
+    (its calibration scaling included, :func:`tyreroad.sensitivity.planned_points`) and every
+    point's surface: the study surface preset with the point's ``surface`` overrides, against the
+    JSON schema.
+
+    Parameters
+    ----------
+    config : mapping
+        The validated config.
+    schema_path : path-like
+        ``workflow/schemas/config.schema.yaml``.
+
+    Returns
+    -------
+    dict
+        ``sensitivity.points``: point name -> point settings.
+
+    Raises
+    ------
+    ConfigError
+        Naming ``sensitivity.<key>`` or ``sensitivity.points.<name>.surface.<key>`` and the value.
+    """
+    try:
+        points = planned_points(config)
+    except (ValueError, TypeError, KeyError) as exc:
+        raise _wrap(exc, "sensitivity") from None
+    base = config["surfaces"][config["study"]["surface"]]
+    for name, point in points.items():
+        label = f"sensitivity-{name}"
+        try:
+            validate_schema({**config, "surfaces": {label: point_surface_spec(base, point["surface"])}}, schema_path)
+        except ConfigError as exc:
+            raise ConfigError(str(exc).replace(f"surfaces.{label}", f"sensitivity.points.{name}.surface", 1)) from None
+    return points
+
+
+def rolling_materials(config: Mapping[str, Any]) -> tuple[list[str], str]:
+    """Materials of the rolling passes and the one of the contact map (figure 14).
+
+    The two defaults of the ``rolling`` section that the schema cannot state: ``rolling.materials``
+    defaults to ``study.materials``, ``rolling.reference_material`` to the first of them. (The
+    section's other defaults are the schema's, inserted when Snakemake validates the config, and
+    :class:`tyreroad.rolling.RollingSettings`' for the pass.)
+    """
+    rolling = config.get("rolling") or {}
+    names = list(rolling.get("materials", config["study"]["materials"]))
+    return names, rolling.get("reference_material", names[0])
 
 
 def _check_rolling(config: Mapping[str, Any]) -> None:
@@ -547,7 +617,10 @@ def _check_rolling(config: Mapping[str, Any]) -> None:
     if rolling is None:
         return
     surfaces, materials = config["surfaces"], config["materials"]
-    for i, name in enumerate(rolling.get("surfaces", ["iso10844-strip"])):
+    if "surfaces" not in rolling:
+        raise ConfigError("rolling.surfaces: missing; expected the strips rolled over (validation against "
+                          "workflow/schemas/config.schema.yaml inserts the default)")
+    for i, name in enumerate(rolling["surfaces"]):
         if name not in surfaces:
             raise ConfigError(f"rolling.surfaces[{i}] = {name!r}: not a preset in surfaces (have: {', '.join(sorted(surfaces))})")
         c_here = float(surfaces[name].get("element_size", 1e-3))
@@ -555,12 +628,11 @@ def _check_rolling(config: Mapping[str, Any]) -> None:
         if not math.isclose(c_here, c_study, rel_tol=1e-9):
             raise ConfigError(f"rolling.surfaces[{i}] = {name!r}: element_size {c_here:g} m differs from that of the "
                               f"study surface ({c_study:g} m), for which the greens are computed; expected equal")
-    names = rolling.get("materials", config["study"]["materials"])
+    names, ref = rolling_materials(config)
     for i, name in enumerate(names):
         if name not in materials:
             raise ConfigError(f"rolling.materials[{i}] = {name!r}: not a preset in materials (have: {', '.join(sorted(materials))})")
-    ref = rolling.get("reference_material")
-    if ref is not None and ref not in names:
+    if ref not in names:
         raise ConfigError(f"rolling.reference_material = {ref!r}: expected one of rolling.materials {list(names)}")
     try:
         RollingSettings.from_config(rolling)
