@@ -74,7 +74,6 @@ def test_footprint_jobs_cover_the_measured_peaks():
     for (rule, w_small), (_, w_large) in zip(_jobs(small), _jobs(large)):
         r_small, r_large = job_resources(rule, small, w_small), job_resources(rule, large, w_large)
         assert r_large["mem_mb"] > r_small["mem_mb"] and r_large["runtime"] >= r_small["runtime"], rule
-    w = {"surface": "footprint", "mode": "dynamic", "accel": "500"}
     measured_mb = {  # MaxRSS of the batch step + the job step, sacct, config/footprint.yaml
         ("prepare_surface", ""): 160 + 2567,
         ("element_springs", ""): 194 + 1620,
