@@ -6,7 +6,8 @@ from pathlib import Path
 import pytest
 import yaml
 
-from tyreroad.cluster import CLUSTER_RULES, job_resources, run_steps
+from tyreroad.cluster import CLUSTER_RULES, job_resources, rolling_pass_steps, run_steps, solver_path
+from tyreroad.loading import LoadingPreset
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -73,7 +74,6 @@ def test_footprint_jobs_cover_the_measured_peaks():
     for (rule, w_small), (_, w_large) in zip(_jobs(small), _jobs(large)):
         r_small, r_large = job_resources(rule, small, w_small), job_resources(rule, large, w_large)
         assert r_large["mem_mb"] > r_small["mem_mb"] and r_large["runtime"] >= r_small["runtime"], rule
-    w = {"surface": "footprint", "mode": "dynamic", "accel": "500"}
     measured_mb = {  # MaxRSS of the batch step + the job step, sacct, config/footprint.yaml
         ("prepare_surface", ""): 160 + 2567,
         ("element_springs", ""): 194 + 1620,
@@ -115,3 +115,64 @@ def test_unknown_rule_is_an_error():
     with pytest.raises(ValueError, match="report"):
         job_resources("report", _config(), {})
     assert "report" not in CLUSTER_RULES
+
+
+def _with_method(config, method):
+    out = copy.deepcopy(config)
+    out["solver"]["method"] = method
+    return out
+
+
+def test_a_dynamic_run_longer_than_the_kept_lags_is_costed_on_the_fft_path():
+    """20 x 20 (400 elements, not above the FFT threshold): solver.method auto takes the FFT path for
+    a dynamic run longer than greens.n_lags = 256 steps, and the request follows the solver."""
+    config = _config()
+    assert config["greens"]["n_lags"] == 256 and config["solver"]["method"] == "auto"
+    slow = {"surface": "iso10844", "material": "tread", "mode": "dynamic", "accel": "5"}
+    assert run_steps(config["solver"], 51200.0, "dynamic", 5.0) == 513  # 51200 sqrt(2 2.5e-4 / 5) + 1
+    fft, dense = _with_method(config, "fft"), _with_method(config, "dense")
+    assert job_resources("contact", config, slow) == job_resources("contact", fft, slow)
+    assert job_resources("contact", config, slow) != job_resources("contact", dense, slow)
+    # the load-unload cycle of the default config: 755 steps, also beyond the kept lags
+    cycle = {"surface": "iso10844", "material": "tread", "mode": "dynamic", "loading": "cycle"}
+    _, d, _ = LoadingPreset("cycle", config["loadings"]["cycle"]).path("dynamic", 51200.0, 1e-5)
+    assert d.size > 256
+    assert job_resources("loading_run", config, cycle) == job_resources("loading_run", fft, cycle)
+    assert job_resources("loading_run", config, cycle) != job_resources("loading_run", dense, cycle)
+    # the path itself: beyond 256 lags (or 400 elements) fft, else dense; a quasi-static kernel has 1 lag
+    assert [solver_path(config, 400, n, True) for n in (53, 256, 257, 513)] == ["dense", "dense", "fft", "fft"]
+    assert solver_path(config, 400, 2501, False) == "dense"
+    assert solver_path(config, 401, 53, True) == solver_path(config, 401, 26, False) == "fft"
+    assert solver_path(dense, 400, 513, True) == "dense" and solver_path(fft, 400, 53, True) == "fft"
+    for w in ({**slow, "accel": "500"}, {**slow, "mode": "quasistatic", "accel": "0"}):
+        assert job_resources("contact", config, w) == job_resources("contact", dense, w), w
+
+
+def test_rolling_pass_steps_follow_the_pass_of_the_job():
+    """d0 given: x_c from -(a + 3 c) before the first element centre to as far past the last,
+    a = sqrt(2 R d0); 150 elements of 1 mm, R = 0.3 m, d0 = 1e-4 m: a = 7.746 mm, x_c from
+    -10.246 mm to 160.246 mm (170.49 mm); at 20 m/s, dx = 20 / 51200 m: ceil(436.46) + 1 steps."""
+    config = _config()
+    config["rolling"].update(d0=1.0e-4, load=None)
+    assert rolling_pass_steps(config, "iso10844-strip", "dynamic", 20.0) == 438
+    assert rolling_pass_steps(config, "iso10844-strip", "quasistatic", 20.0) == 1706  # ceil(1704.92) + 1
+    # with a load, d0 is bounded by the spring table (zeta_max = 1 mm): a longer pass is planned
+    assert rolling_pass_steps(_config(), "iso10844-strip", "dynamic", 20.0) > 438
+
+
+def test_rolling_jobs_are_cluster_jobs_sized_for_the_strip():
+    config = _config()
+    assert {"rolling_greens", "rolling_run"} <= set(CLUSTER_RULES)
+    # the strips' Green's functions cover 150 x 20 offsets: more than the study's 20 x 20
+    assert job_resources("rolling_greens", config, {"material": "tread"})["mem_mb"] > job_resources(
+        "greens", config, {"material": "tread"})["mem_mb"]
+    w = {"surface": "iso10844-strip", "material": "tread", "mode": "dynamic"}
+    slow, fast = (job_resources("rolling_run", config, {**w, "speed": v}) for v in ("5", "20"))
+    # measured (README, bench_rolling.py): 0.4 GB peak; 44 s at 5 m/s, 10 s at 20 m/s with 2 threads
+    for res, seconds in ((slow, 44.0), (fast, 10.0)):
+        assert 400 + 1.15 * 400 <= res["mem_mb"] <= 1500, res
+        assert res["runtime"] * 60 >= 3 * 2 * seconds, res  # 1 thread: at most twice the 2-thread time
+    assert slow["runtime"] > fast["runtime"]
+    retry = job_resources("rolling_run", config, {**w, "speed": "5"}, attempt=2)
+    assert retry["runtime"] == pytest.approx(2 * slow["runtime"], abs=1)
+    assert retry["mem_mb"] == pytest.approx(2 * slow["mem_mb"], abs=100)

@@ -1,6 +1,8 @@
 """Config validation: the JSON schema and the cross-reference checks, before any job runs."""
 
 import copy
+import dataclasses
+import re
 import shutil
 import subprocess
 import sys
@@ -11,7 +13,12 @@ import yaml
 from snakemake.utils import validate
 
 from tyreroad import config as C
+from tyreroad import provenance as P
 from tyreroad.config import ConfigError, check_references, load_config, merge
+from tyreroad.greens import GreensSettings
+from tyreroad.material import material_from_config
+from tyreroad.solver import SolverSettings
+from tyreroad.springs import SpringModel
 
 ROOT = Path(__file__).resolve().parents[1]
 SCHEMA = str(ROOT / "workflow" / "schemas" / "config.schema.yaml")
@@ -100,20 +107,45 @@ def test_bad_config_stops_snakemake_before_any_job(tmp_path):
     assert not (tmp_path / "results").exists()
 
 
-def test_schema_defaults_are_accepted_by_the_package(config):
-    """Snakemake inserts schema defaults into the config; the package must accept the result."""
-    from tyreroad.contact import SolverSettings
-    from tyreroad.greens import GreensSettings
-    from tyreroad.material import material_from_config
-    from tyreroad.springs import SpringModel
+@pytest.mark.parametrize("section, cls", [("solver", SolverSettings), ("greens", GreensSettings),
+                                          ("springs", SpringModel)])
+def test_schema_defaults_are_the_package_defaults(config, section, cls):
+    """Each default of these sections has one value: the schema states the settings class's own.
 
+    Snakemake inserts the schema's defaults into the config; a section given empty must build the
+    same settings as the class's defaults (1e-5 m for solver.quasistatic_step, say).
+    """
+    props = yaml.safe_load(Path(SCHEMA).read_text())["properties"][section]["properties"]
+    fields = {f.name: f.default for f in dataclasses.fields(cls)}
+    assert set(props) == set(fields)
+    assert {k: v.get("default") for k, v in props.items()} == fields
+    cfg = copy.deepcopy(config)
+    cfg[section] = {}
+    validate(cfg, SCHEMA)
+    assert cfg[section] == fields
+    assert cls.from_config(cfg[section]) == cls()
+
+
+def test_default_study_settings_build_from_the_validated_config(config):
     cfg = copy.deepcopy(config)
     validate(cfg, SCHEMA)
-    for name in cfg["materials"]:
-        material_from_config(name, cfg["materials"])
-    SpringModel.from_config(cfg["springs"])
-    GreensSettings.from_config(cfg["greens"])
-    SolverSettings.from_config(cfg["solver"])
+    solver = SolverSettings.from_config(cfg["solver"])
+    assert solver.quasistatic_step == 1e-5 and solver.d_max == 2.5e-4
+    assert GreensSettings.from_config(cfg["greens"]).n_lags == 256
+    assert SpringModel.from_config(cfg["springs"]).zeta_step == 1e-6
+    assert [material_from_config(name, cfg["materials"]).thickness for name in cfg["materials"]] == [0.01] * 5
+
+
+def test_planning_takes_the_quasistatic_step_default_from_the_solver():
+    """Without solver.quasistatic_step, the grid check uses SolverSettings' 1e-5 m: d_max = 8e-6 m is
+    less than one step (the 1e-6 m that config.py used to assume would have let it through)."""
+    cfg = load_config(ROOT / "config" / "config.yaml")
+    cfg["solver"] = {"d_max": 8.0e-6}
+    with pytest.raises(ConfigError, match=r"^solver\.quasistatic_step = 1e-05: expected at most solver\.d_max / 2"):
+        C._check_solver_and_study(cfg)
+    cfg["solver"]["quasistatic_step"] = 4.0e-6  # 0, 4e-6, 8e-6: the 3 points a run needs
+    with pytest.raises(ConfigError, match=r"^study"):  # passes the grid check, fails on the study's own range
+        C._check_solver_and_study(cfg)
 
 
 def test_duplicate_key_is_an_error_naming_key_file_and_line(tmp_path):
@@ -152,7 +184,7 @@ def test_overlays_write_to_their_own_results_dirs():
 
 
 # the sensitivity sweep's adapters call tyreroad.sensitivity directly, not a pipeline.run_* function
-@pytest.mark.parametrize("stage", sorted(set(C.STAGE_MODULES) - {"sensitivity"}))
+@pytest.mark.parametrize("stage", sorted(set(P.STAGE_MODULES) - {"sensitivity"}))
 def test_stage_map_covers_what_the_stage_function_imports(stage):
     """Every module a pipeline.run_<stage> function imports is an entry of STAGE_MODULES[stage]."""
     import ast
@@ -171,23 +203,97 @@ def test_stage_map_covers_what_the_stage_function_imports(stage):
                 imported.add(sub.module)
             elif isinstance(sub, ast.Call) and isinstance(sub.func, ast.Name) and sub.func.id in helpers:
                 todo.append(helpers[sub.func.id])
-    assert imported and imported <= set(C.stage_modules(stage)), imported - set(C.stage_modules(stage))
+    assert imported and imported <= set(P.stage_modules(stage)), imported - set(P.stage_modules(stage))
 
 
 def test_stage_modules_follow_imports_and_hash_the_source(tmp_path):
     import shutil
 
-    assert set(C.stage_modules("prepare_surface")) >= {"surface", "texture", "scans", "io", "pipeline"}
-    assert "greens" not in C.stage_modules("prepare_surface")
-    assert {"greens", "layer", "material", "reference.love"} <= set(C.stage_modules("greens"))
-    assert "greens" not in C.stage_modules("contact")  # contact reads the greens file, not the code
+    assert set(P.stage_modules("prepare_surface")) >= {"surface", "texture", "scans", "io", "pipeline"}
+    assert "greens" not in P.stage_modules("prepare_surface")
+    assert {"greens", "layer", "material", "reference.love"} <= set(P.stage_modules("greens"))
+    assert "greens" not in P.stage_modules("contact")  # contact reads the greens file, not the code
     pkg = tmp_path / "tyreroad"
     shutil.copytree(ROOT / "tyreroad", pkg, ignore=shutil.ignore_patterns("__pycache__"))
-    before = {s: C.source_hash(s, pkg) for s in C.STAGE_MODULES}
-    assert before == {s: C.source_hash(s) for s in C.STAGE_MODULES}  # the location does not matter
+    before = {s: P.source_hash(s, pkg) for s in P.STAGE_MODULES}
+    assert before == {s: P.source_hash(s) for s in P.STAGE_MODULES}  # the location does not matter
     (pkg / "greens.py").write_text((pkg / "greens.py").read_text() + "\n# a change\n")
-    after = {s: C.source_hash(s, pkg) for s in C.STAGE_MODULES}
+    after = {s: P.source_hash(s, pkg) for s in P.STAGE_MODULES}
     # the sweep computes its points' Green's functions itself; K*(f) evaluates the element FRF
     assert {s for s in before if before[s] != after[s]} == {"greens", "sensitivity", "stiffness_spectrum"}
     (pkg / "io.py").write_text((pkg / "io.py").read_text() + "\n# a change\n")
-    assert all(C.source_hash(s, pkg) != after[s] for s in C.STAGE_MODULES)  # every stage writes through io
+    assert all(P.source_hash(s, pkg) != after[s] for s in P.STAGE_MODULES)  # every stage writes through io
+
+
+def test_a_stage_entry_naming_a_subpackage_hashes_all_its_modules(tmp_path):
+    """rolling.py split into a folder: every module of the folder is code of the rolling stages,
+    also one that its __init__ does not import; an imported subpackage (plots) is not expanded."""
+    import shutil
+
+    pkg = tmp_path / "tyreroad"
+    shutil.copytree(ROOT / "tyreroad", pkg, ignore=shutil.ignore_patterns("__pycache__"))
+    assert "plots.study" not in P.stage_modules("rolling_figures", pkg)  # plots.rolling only, not its siblings
+    if (pkg / "rolling.py").is_file():  # today's layout: make it a package (its imports one level up)
+        (pkg / "rolling").mkdir()
+        text = re.sub(r"^(\s*)from \.", r"\1from ..", (pkg / "rolling.py").read_text(), flags=re.M)
+        (pkg / "rolling" / "__init__.py").write_text(text)
+        (pkg / "rolling.py").unlink()
+    (pkg / "rolling" / "spare.py").write_text('"""Not imported by rolling/__init__.py."""\nX = 1\n')
+    mods = P.stage_modules("rolling", pkg)
+    assert {"rolling", "rolling.spare", "contact"} <= set(mods)
+    assert "rolling/spare.py" in P.stage_files("rolling", pkg)
+    before = {s: P.source_hash(s, pkg) for s in P.STAGE_MODULES}
+    (pkg / "rolling" / "spare.py").write_text('"""Not imported by rolling/__init__.py."""\nX = 2\n')
+    after = {s: P.source_hash(s, pkg) for s in P.STAGE_MODULES}
+    changed = {s for s in before if before[s] != after[s]}
+    assert changed == {"rolling", "rolling_study", "rolling_report"}
+
+
+def _validated(*overlays):
+    cfg = load_config(ROOT / "config" / "config.yaml")
+    for overlay in overlays:
+        cfg = merge(cfg, overlay)
+    validate(cfg, SCHEMA)
+    return cfg
+
+
+def test_stiffness_spectrum_is_checked_with_the_config():
+    """Moved from workflow/rules/stiffness.smk: the section and its grid below fs / 2."""
+    C._check_stiffness_spectrum(_validated())
+    with pytest.raises(ConfigError, match=r"^stiffness_spectrum: frequency grid: f_min = 30000 Hz must be below "
+                                          r"f_max = fs/2 = 25600 Hz"):
+        C.check_config(_validated({"stiffness_spectrum": {"f_min": 3.0e4}}), ROOT)  # fs = 51200 Hz
+    with pytest.raises(ConfigError, match=r"^stiffness_spectrum\.figure_preload: expected one of the preloads"):
+        C._check_stiffness_spectrum(_validated({"stiffness_spectrum": {"figure_preload": 3.3e-5}}))
+
+
+def test_sensitivity_points_are_checked_and_returned():
+    """Moved from workflow/rules/sensitivity.smk: the section, each point's material and surface."""
+    cfg = _validated()
+    points = C.sensitivity_points(cfg, SCHEMA)
+    assert len(points) == 10 and points["seed2"]["surface"] == {"seed": 20140102}
+    assert C.sensitivity_points({k: v for k, v in cfg.items() if k != "sensitivity"}, SCHEMA) == {}
+    bad_surface = copy.deepcopy(cfg)
+    bad_surface["sensitivity"]["points"]["seed2"]["surface"] = {"seed": -3}
+    with pytest.raises(ConfigError, match=r"^sensitivity\.points\.seed2\.surface\.seed = -3: "):
+        C.sensitivity_points(bad_surface, SCHEMA)
+    unknown = copy.deepcopy(cfg)
+    unknown["sensitivity"]["points"]["seed2"]["surface"] = {"sead": 1}
+    with pytest.raises(ConfigError, match=r"^sensitivity\.points\.seed2\.surface\.sead: unknown key; did you mean 'seed'"):
+        C.sensitivity_points(unknown, SCHEMA)
+    bad_material = copy.deepcopy(cfg)
+    bad_material["sensitivity"]["points"]["alpha0.4"]["material"] = {"alpha": 1.5}
+    with pytest.raises(ConfigError, match=r"^sensitivity\.points\.alpha0\.4\.material"):
+        C.sensitivity_points(bad_material, SCHEMA)
+
+
+def test_rolling_materials_default_to_the_study_and_its_first():
+    cfg = _validated()
+    assert C.rolling_materials(cfg) == (cfg["rolling"]["materials"], "tread")
+    del cfg["rolling"]["materials"], cfg["rolling"]["reference_material"]
+    assert C.rolling_materials(cfg) == (cfg["study"]["materials"], cfg["study"]["materials"][0])
+    # the schema's defaults of the study keys are inserted by validation (common.smk reads them)
+    flat = _validated({"rolling": {"surfaces": ["iso10844-strip"], "speeds": [5, 20]}})
+    flat["rolling"].pop("quasistatic_speeds")
+    validate(flat, SCHEMA)
+    assert flat["rolling"]["quasistatic_speeds"] == [5, 30]

@@ -6,7 +6,10 @@ into ``sbatch --mem`` and ``--time``. The estimates scale with what drives the c
 measured peaks of the stage's own process (``results/benchmarks/`` of the paper's study, 20 x 20:
 0.20-0.33 GB; jobs of ``config/footprint.yaml`` on the test cluster of tests/slurm, 150 x 200:
 surface 2.4 GB, springs 1.4 GB, Green's functions 1.6 GB, contact 1.6-1.8 GB), with head room:
-1.25x on memory and 3x on run time. On top come the
+1.25x on memory and 3x on run time. The solver path (dense or FFT) of a run is the one the solver
+itself takes (:meth:`tyreroad.solver.SolverSettings.resolved_method`), and run lengths are the
+loadings' own step counts (:mod:`tyreroad.loading`, :func:`tyreroad.rolling.pass_positions`).
+On top come the
 two Snakemake processes of every SLURM job (the batch step and the job step that runs the rule:
 ~0.2 GB each, measured with sacct on the test cluster, where a 20 x 20 contact job peaked at
 0.19 + 0.45 GB) and a fixed start-up time (interpreter, imports, a numba cache that may have to
@@ -19,15 +22,21 @@ from __future__ import annotations
 import math
 from typing import Any, Mapping
 
-__all__ = ["CLUSTER_RULES", "job_resources", "run_steps"]
+import numpy as np
+
+from .loading import LoadingPreset, constant_acceleration_steps, uniform_grid_steps
+from .solver import SolverSettings
+
+__all__ = ["CLUSTER_RULES", "job_resources", "run_steps", "rolling_pass_steps", "solver_path"]
 
 #: Rules that run as cluster jobs (the others are ``localrules``).
-CLUSTER_RULES = ("prepare_surface", "element_springs", "greens", "contact", "loading_run", "stiffness_spectrum")
+CLUSTER_RULES = ("prepare_surface", "element_springs", "greens", "contact", "loading_run", "stiffness_spectrum",
+                 "rolling_greens", "rolling_run")
 
 _BASE_MB = 280.0          # MB, a stage's process: interpreter, numpy/scipy/numba/xarray, small arrays
 _SNAKEMAKE_MB = 400.0     # MB, the job's two Snakemake processes (batch step, job step)
 _STARTUP_MIN = 5.0        # min, interpreter start, imports, possibly a cold numba compile
-_FFT_ABOVE = 400          # elements; solver.method 'auto' switches to the FFT path above this
+_D0_SOLVE_STEPS = 60      # static solves of the d0 search of a rolling pass given its load (doubling + Brent)
 _DEFAULT_FIELD = 0.1      # m, schema default of surfaces.*.field_size
 
 
@@ -48,23 +57,59 @@ def run_steps(solver: Mapping[str, Any], sample_rate: float, mode: str, accel: f
     Returns
     -------
     int
-        Steps from first contact to ``d_max``, both ends included: ``d_max / quasistatic_step + 1``
-        (quasi-static) or ``ceil(sqrt(2 d_max / accel) * sample_rate) + 1`` (dynamic, constant
-        acceleration from rest, time step ``1 / sample_rate``).
+        Steps from first contact to ``d_max``, both ends included, as the run counts them:
+        :func:`tyreroad.loading.uniform_grid_steps` (quasi-static) or
+        :func:`tyreroad.loading.constant_acceleration_steps` (dynamic, constant acceleration from
+        rest, time step ``1 / sample_rate``).
     """
     d_max = float(solver["d_max"])
     if mode == "quasistatic":
-        return _ceil(d_max / float(solver["quasistatic_step"])) + 1
+        return uniform_grid_steps(d_max, float(solver["quasistatic_step"]))
     if mode != "dynamic":
         raise ValueError(f"mode: expected 'dynamic' or 'quasistatic', got {mode!r}")
     if not float(accel) > 0:
         raise ValueError(f"accel: expected a positive acceleration [m/s^2], got {accel!r}")
-    return _ceil(math.sqrt(2.0 * d_max / float(accel)) * float(sample_rate)) + 1
+    return constant_acceleration_steps(float(sample_rate), float(accel), d_max)
 
 
-def _ceil(x: float) -> int:
-    """Ceiling that ignores round-off above an integer (2.5e-4 / 1e-6 is 250.00000000000003)."""
-    return int(math.ceil(x - 1e-9 * max(1.0, abs(x))))
+def rolling_pass_steps(config: Mapping[str, Any], surface: str, mode: str, speed: float) -> int:
+    """Number of steps of one rolling pass over a strip, as planned before d0 is known.
+
+    Parameters
+    ----------
+    config : mapping
+        The validated workflow config (sections ``rolling``, ``surfaces``, ``springs``, ``greens``).
+    surface : str
+        The strip's surface preset.
+    mode : {'dynamic', 'quasistatic'}
+        Pass type.
+    speed : float
+        Rolling speed v [m/s].
+
+    Returns
+    -------
+    int
+        Contact-centre positions of the pass (:func:`tyreroad.rolling.pass_positions` over
+        :func:`tyreroad.rolling.pass_limits`): pass length * fs / v (dynamic) or pass length /
+        ``rolling.quasistatic_step`` (quasi-static), plus one. With ``rolling.load`` the indentation
+        d0 is found only in the job (it sets the contact half-length sqrt(2 R d0) by which the
+        automatic pass overhangs the strip): the count takes ``springs.zeta_max``, the largest d0
+        the job's search accepts, an upper bound (default 150 x 20 strip at 5 m/s: 2090 steps
+        planned; the measured 44 s at ~0.024 s per step are about 1800).
+    """
+    # deferred on purpose: tyreroad.rolling imports the contact solver (numba, scipy); the other
+    # rules' requests need only the light tyreroad.solver and tyreroad.loading
+    from .rolling import RollingSettings, pass_limits, pass_positions
+
+    settings = RollingSettings.from_config(config["rolling"])
+    spec = config["surfaces"][surface]
+    size = float(spec.get("element_size", 1.0e-3))
+    nx, _ = _elements(config, surface)
+    d0 = settings.d0 if settings.d0 is not None else float(config["springs"]["zeta_max"])
+    x_start, x_end = pass_limits(settings, d0, (np.arange(nx) + 0.5) * size, size)
+    _, x_c = pass_positions(mode, speed, x_start, x_end, float(config["greens"]["sample_rate"]),
+                            settings.quasistatic_step)
+    return int(x_c.size)
 
 
 def _elements(config: Mapping[str, Any], surface: str) -> tuple[int, int]:
@@ -72,18 +117,29 @@ def _elements(config: Mapping[str, Any], surface: str) -> tuple[int, int]:
     return int(nx), int(ny)
 
 
-def _greens_elements(config: Mapping[str, Any]) -> tuple[int, int]:
+def _lag_terms(steps: int, n_lags: int) -> int:
+    """Lags summed over a dynamic run on the dense path: sum over steps n of min(n, n_lags).
+
+    Times 1.2e-9 s m^2 it is the history-sum time of :func:`job_resources`, calibrated on the 20 x 20
+    load-unload cycle of 755 steps on 256 lags that takes 38 s dense (5 s on the FFT path, whose
+    model gives 6 s; :meth:`tyreroad.solver.SolverSettings.resolved_method`).
+    """
+    short = min(steps, n_lags)
+    return short * (short - 1) // 2 + max(0, steps - n_lags) * n_lags
+
+
+def _greens_elements(config: Mapping[str, Any], rolling: bool = False) -> tuple[int, int]:
     """The Green's tables cover the largest configured patch (see the workflow's max_patch_elements);
-    the rolling strips (rolling.surfaces) have their own Green's functions and do not count."""
-    strips = set(config["rolling"].get("surfaces", ["iso10844-strip"])) if "rolling" in config else set()
-    sizes = [_elements(config, name) for name in config["surfaces"] if name not in strips] or [
+    the rolling strips (rolling.surfaces) have their own Green's functions (``rolling=True``)."""
+    strips = set(config["rolling"]["surfaces"]) if "rolling" in config else set()
+    sizes = [_elements(config, name) for name in config["surfaces"] if (name in strips) == rolling] or [
         _elements(config, name) for name in config["surfaces"]]
     return max(s[0] for s in sizes), max(s[1] for s in sizes)
 
 
-def _kernel_mb(config: Mapping[str, Any]) -> float:
-    """Size of one time-domain kernel table g[dx, dy, lag] [MB]."""
-    nx, ny = _greens_elements(config)
+def _kernel_mb(config: Mapping[str, Any], rolling: bool = False) -> float:
+    """Size of one time-domain kernel table g[dx, dy, lag] [MB] (of the study's or the strips' greens)."""
+    nx, ny = _greens_elements(config, rolling)
     return (2 * nx - 1) * (2 * ny - 1) * int(config["greens"]["n_lags"]) * 8 / 1e6
 
 
@@ -97,9 +153,28 @@ def _field_mb(spec: Mapping[str, Any], patch_only: bool = False) -> float:
     return samples[0] * samples[1] * 8 / 1e6
 
 
-def _uses_fft(solver: Mapping[str, Any], elements: int) -> bool:
-    method = solver.get("method", "auto")
-    return method == "fft" or (method == "auto" and elements > _FFT_ABOVE)
+def solver_path(config: Mapping[str, Any], n_elements: int, n_steps: int, dynamic: bool) -> str:
+    """``"dense"`` or ``"fft"``: the path the solver takes for a run, asked of the solver itself.
+
+    Parameters
+    ----------
+    config : mapping
+        The workflow config (sections ``solver`` and ``greens``).
+    n_elements : int
+        Elements of the patch or strip.
+    n_steps : int
+        Steps of the run.
+    dynamic : bool
+        A dynamic run is compared with the kernel's kept lags (``greens.n_lags``): longer, it takes
+        the FFT path under ``solver.method: auto``; a quasi-static kernel has 1 lag.
+
+    Returns
+    -------
+    str
+        :meth:`tyreroad.solver.SolverSettings.resolved_method` of the run.
+    """
+    n_lags = int(config["greens"]["n_lags"]) if dynamic else 1
+    return SolverSettings.from_config(config["solver"]).resolved_method(n_elements, n_steps, n_lags)
 
 
 def job_resources(rule: str, config: Mapping[str, Any], wildcards: Mapping[str, Any], attempt: int = 1) -> dict[str, int]:
@@ -112,7 +187,8 @@ def job_resources(rule: str, config: Mapping[str, Any], wildcards: Mapping[str, 
     config : mapping
         The validated workflow config.
     wildcards : mapping
-        The job's wildcards (``surface``; ``mode``, ``accel`` for ``contact``).
+        The job's wildcards: ``surface`` (``material`` for the Green's functions); ``mode`` and
+        ``accel`` (``contact``), ``loading`` (``loading_run``) or ``speed`` [m/s] (``rolling_run``).
     attempt : int
         Snakemake's attempt counter (1 for the first submission).
 
@@ -136,34 +212,46 @@ def job_resources(rule: str, config: Mapping[str, Any], wildcards: Mapping[str, 
         patch = _field_mb(spec, patch_only=True)
         # 150 x 200 on the test cluster: 1.4 GB and 34 s (240 MB of tables)
         mem, seconds = _BASE_MB + 4 * tables + 4 * patch, 0.15 * (tables + patch)
-    elif rule == "greens":
-        kernel = _kernel_mb(config)
+    elif rule in ("greens", "rolling_greens"):
+        kernel = _kernel_mb(config, rolling=rule == "rolling_greens")
         n_fft_scale = int(config["greens"]["n_fft"]) / 4096
         # 150 x 200 on the test cluster: 1.6 GB and 111 s for a 244 MB table
         mem = _BASE_MB + 6 * kernel * max(1.0, n_fft_scale)
         seconds = 0.5 * kernel * n_fft_scale + 10
-    else:  # contact, loading_run
+    else:  # contact, loading_run, stiffness_spectrum, rolling_run
         nx, ny = _elements(config, wildcards["surface"])
         m = nx * ny
         solver = config["solver"]
+        dynamic = wildcards.get("mode") == "dynamic"
+        output = 0.0
         if rule == "stiffness_spectrum":  # a few quasi-static states and one solve per frequency
             steps = 4 * len(config.get("stiffness_spectrum", {}).get("preloads", [0] * 4)) + 80
+            dynamic = False
+        elif rule == "rolling_run":
+            # a pass stores per-step sums and a few element maps only: its memory is the kernel's and
+            # the FFT work arrays' (150 x 20 strip, 20 m/s, 2 threads: 0.4 GB peak, benchmarks/
+            # bench_rolling.py; this model asks for 0.4 GB of the process plus head room). Run time: the
+            # FFT step below gives 0.06 s per step on 1 thread for 150 x 20; measured 0.023-0.025 s per
+            # step with 2 threads (10 s at 20 m/s, 44 s at 5 m/s, README "Rolling contact").
+            steps = rolling_pass_steps(config, wildcards["surface"], wildcards["mode"], float(wildcards["speed"]))
+            if config["rolling"].get("d0") is None:
+                steps += _D0_SOLVE_STEPS
         elif rule == "loading_run":
-            from .loading import LoadingPreset
-
             preset = LoadingPreset(wildcards["loading"], config["loadings"][wildcards["loading"]])
             _, d, _ = preset.path(wildcards["mode"], config["greens"]["sample_rate"], solver["quasistatic_step"])
             steps = d.size
         else:
             steps = run_steps(solver, config["greens"]["sample_rate"], wildcards["mode"], float(wildcards["accel"]))
-        output = steps * m * 8 * 6 / 1e6          # per-step, per-element variables of the result
-        mem = _BASE_MB + 5 * _kernel_mb(config) + 3 * output
-        if _uses_fft(solver, m):
-            per_step = 2e-5 * m                   # s; 150 x 200, 1 thread, test cluster: 0.55 s (dynamic), 0.23 s (QS)
+        if rule != "rolling_run":
+            output = steps * m * 8 * 6 / 1e6      # per-step, per-element variables of the result
+        mem = _BASE_MB + 5 * _kernel_mb(config, rolling=rule == "rolling_run") + 3 * output
+        if solver_path(config, m, steps, dynamic) == "fft":
+            seconds = steps * 2e-5 * m            # s; 150 x 200, 1 thread, test cluster: 0.55 s (dynamic), 0.23 s (QS)
         else:
-            per_step = 1.2e-10 * m**3 + 1e-3      # s, dense elimination over the loaded elements
+            seconds = steps * (1.2e-10 * m**3 + 1e-3)  # s, dense elimination over the loaded elements
+            if dynamic:  # the offset-table history sum: m^2 products per kept lag reached
+                seconds += 1.2e-9 * m * m * _lag_terms(steps, int(config["greens"]["n_lags"]))
             mem += 4 * m * m * 8 / 1e6            # dense Jacobian and its factors
-        seconds = steps * per_step
     return {
         "mem_mb": int(math.ceil((_SNAKEMAKE_MB + 1.25 * mem) * attempt / 100.0) * 100),
         "runtime": int(math.ceil((_STARTUP_MIN + 3 * seconds / 60.0) * attempt)),

@@ -10,32 +10,45 @@ Snakemake runs these checks while it plans (``snakemake -n`` included), from
 3. :func:`check_config`: the rules a schema cannot express: cross-references between sections,
    FFT sizes and lag counts, grids that must divide each other, file-name labels that must be
    unique, ``solver.d_max`` against the spring table and the tread thickness, every surface preset
-   as the surface stage will parse it, and every scan file (exists, not empty, header readable,
-   crop window and patch inside the scan).
+   as the surface stage will parse it, every scan file (exists, not empty, header readable,
+   crop window and patch inside the scan), the rolling section and the K*(f) frequency grid
+   against the kernel's sample rate.
+   :func:`sensitivity_points` (from ``workflow/rules/sensitivity.smk``): the sweep's section, each
+   point's material and each point's surface preset against the schema.
 4. :func:`check_job`: per job of the plan, the presets named by its wildcards (a requested target
    such as ``results/surface/foo.nc`` names a preset ``foo`` that must exist).
 
 Every failure raises :class:`ConfigError` with one short paragraph: the key path (or file), the
 value, and what is expected.
 
-The module also maps each workflow stage to the tyreroad modules it runs
-(:data:`STAGE_MODULES`, :func:`stage_modules`) and hashes their source (:func:`source_hash`); the
-rules pass that hash as a param so that a change in the package re-plans exactly the stages whose
-code changed.
+Which source each stage runs and its hash (the rules' ``code`` param) live in
+:mod:`tyreroad.provenance`.
 """
 
 from __future__ import annotations
 
-import ast
 import copy
-import hashlib
+import difflib
 import math
 import re
 from functools import lru_cache
 from pathlib import Path
 from typing import Any, Iterable, Mapping, Sequence
 
+import jsonschema
 import yaml
+
+from . import scans
+from . import surface as S
+from .greens import GreensSettings
+from .loading import LoadingPreset, constant_acceleration_steps, uniform_grid_steps
+from .material import material_from_config
+from .rolling import RollingSettings
+from .sensitivity import planned_points, point_surface_spec
+from .solver import SolverSettings
+from .springs import SpringModel
+from .stiffness import SpectrumSettings
+from .study import StudySettings, case_label
 
 __all__ = [
     "ConfigError",
@@ -47,9 +60,8 @@ __all__ = [
     "check_references",
     "check_config",
     "check_job",
-    "STAGE_MODULES",
-    "stage_modules",
-    "source_hash",
+    "sensitivity_points",
+    "rolling_materials",
 ]
 
 
@@ -175,8 +187,6 @@ def validate_schema(config: Mapping[str, Any], schema_path: str | Path) -> None:
     description from the schema (which states the unit and the default). Defaults are not
     inserted here (Snakemake's ``validate`` does that afterwards).
     """
-    import jsonschema
-
     schema = _load_schema(str(schema_path))
     validator_cls = jsonschema.validators.validator_for(schema)
     errors = list(validator_cls(schema).iter_errors(config))
@@ -185,8 +195,6 @@ def validate_schema(config: Mapping[str, Any], schema_path: str | Path) -> None:
     err = jsonschema.exceptions.best_match(errors)
     path = list(err.absolute_path)
     if err.validator == "additionalProperties":
-        import difflib
-
         known = sorted(_schema_at(schema, path).get("properties", {}))
         extra = sorted(set(err.instance) - set(known))
         close = difflib.get_close_matches(str(extra[0]), known, n=1) if extra else []
@@ -228,7 +236,7 @@ def _fail(key: str, value: Any, expected: str) -> ConfigError:
 def _wrap(exc: Exception, key: str) -> ConfigError:
     """A package ValueError as a ConfigError; prefix the key path unless the message names one."""
     msg = str(exc).strip("'\"")
-    if re.match(r"^(surfaces|materials|springs|greens|solver|study|results_dir)\b", msg) or msg.startswith("/"):
+    if re.match(r"^(surfaces|materials|springs|greens|solver|study|results_dir|rolling|loadings|sensitivity|stiffness_spectrum)\b", msg) or msg.startswith("/"):
         return ConfigError(msg)
     return ConfigError(f"{key}: {msg}")
 
@@ -280,8 +288,6 @@ def check_references(config: Mapping[str, Any]) -> None:
                 raise ConfigError(
                     f"study.loadings.{preset}[{i}]: {name!r} is not a preset in materials (have: {sorted(materials)})"
                 )
-    from .loading import LoadingPreset
-
     for name, spec in loadings.items():
         if "_" in name:
             raise ConfigError(f"loadings.{name}: preset names may not contain '_' (it separates wildcards)")
@@ -290,7 +296,7 @@ def check_references(config: Mapping[str, Any]) -> None:
         except ValueError as err:
             raise ConfigError(str(err)) from None
     lo, hi = study.get("saturation_range", [1.8e-4, 2.5e-4])
-    d_max = config.get("solver", {}).get("d_max", 2.5e-4)
+    d_max = _d_max(config)
     if not lo < hi <= d_max * (1 + 1e-12):
         raise ConfigError(
             f"study.saturation_range = [{lo:g}, {hi:g}]: expected lo < hi <= solver.d_max = {d_max:g} m"
@@ -303,6 +309,22 @@ SCAN_READ_LIMIT = 64 * 2**20
 
 #: Minimum number of steps of a run: the study differentiates F(d) with a 3-point rule.
 MIN_RUN_STEPS = 3
+
+#: Defaults of the sections whose keys the checks read, from the package's settings classes (the
+#: one place of each default; the schema states the same values, tests/test_config.py checks it).
+_SOLVER = SolverSettings()
+_GREENS = GreensSettings()
+_SPRINGS = SpringModel()
+
+
+def _d_max(config: Mapping[str, Any]) -> float:
+    """``solver.d_max`` [m], or its default."""
+    return float(config.get("solver", {}).get("d_max", _SOLVER.d_max))
+
+
+def _sample_rate(config: Mapping[str, Any]) -> float:
+    """``greens.sample_rate`` [Hz], or its default."""
+    return float(config.get("greens", {}).get("sample_rate", _GREENS.sample_rate))
 
 
 def _check_case_collisions(section: str, names: Iterable[str]) -> None:
@@ -327,25 +349,23 @@ def _check_results_dir(config: Mapping[str, Any]) -> None:
 
 
 def _check_solver_and_study(config: Mapping[str, Any]) -> None:
-    from .study import StudySettings, case_label
-
     solver = config.get("solver", {})
     study = config["study"]
     greens = config.get("greens", {})
     springs = config.get("springs", {})
-    d_max = float(solver.get("d_max", 2.5e-4))
+    d_max = _d_max(config)
 
     # Green's functions: FFT size and kept lags
-    n_fft = greens.get("n_fft", 4096)
+    n_fft = greens.get("n_fft", _GREENS.n_fft)
     if isinstance(n_fft, int) and (n_fft < 4096 or n_fft & (n_fft - 1)):
         raise _fail("greens.n_fft", n_fft, "a power of two >= 4096 (e.g. 4096, 8192, 16384)")
-    n_lags = greens.get("n_lags", 256)
+    n_lags = greens.get("n_lags", _GREENS.n_lags)
     if isinstance(n_lags, int) and isinstance(n_fft, int) and n_lags > n_fft // 2:
         raise _fail("greens.n_lags", n_lags, f"at most greens.n_fft / 2 = {n_fft // 2}")
 
     # springs: the table grid
-    zeta_max = float(springs.get("zeta_max", 1e-3))
-    zeta_step = float(springs.get("zeta_step", 1e-6))
+    zeta_max = float(springs.get("zeta_max", _SPRINGS.zeta_max))
+    zeta_step = float(springs.get("zeta_step", _SPRINGS.zeta_step))
     ratio = zeta_max / zeta_step
     if abs(ratio - round(ratio)) > 1e-6 * ratio:
         raise _fail(
@@ -360,8 +380,6 @@ def _check_solver_and_study(config: Mapping[str, Any]) -> None:
             f"at most springs.zeta_max = {zeta_max:g} m: an element's compression reaches d_max and the "
             f"spring table ends at zeta_max",
         )
-    from .material import material_from_config
-
     for name in study.get("materials", []):
         try:
             h = material_from_config(name, config["materials"]).thickness
@@ -374,15 +392,15 @@ def _check_solver_and_study(config: Mapping[str, Any]) -> None:
                 f"model is linear (small strain)",
             )
     # quasi-static grid
-    qs = float(solver.get("quasistatic_step", 1e-6))
-    if math.ceil(d_max / qs * (1 - 1e-12)) < MIN_RUN_STEPS - 1 or qs > d_max:
+    qs = float(solver.get("quasistatic_step", _SOLVER.quasistatic_step))
+    if qs > d_max or uniform_grid_steps(d_max, qs) < MIN_RUN_STEPS:
         raise _fail(
             "solver.quasistatic_step", qs,
             f"at most solver.d_max / {MIN_RUN_STEPS - 1} = {d_max / (MIN_RUN_STEPS - 1):g} m (a run needs "
             f"{MIN_RUN_STEPS} indentation points)",
         )
     # dynamic runs: enough time steps, unique file labels
-    fs = float(greens.get("sample_rate", 51200.0))
+    fs = _sample_rate(config)
     labels: dict[str, int] = {}
     for i, a in enumerate(study.get("accelerations", [])):
         label = case_label("", "dynamic", a).split("/")[-1]
@@ -394,7 +412,7 @@ def _check_solver_and_study(config: Mapping[str, Any]) -> None:
                 f"in their first 6 significant digits"
             )
         labels[label] = i
-        steps = math.ceil(fs * math.sqrt(2.0 * d_max / float(a)) * (1.0 - 1e-12))
+        steps = constant_acceleration_steps(fs, float(a), d_max) - 1  # time steps after t = 0
         if steps < MIN_RUN_STEPS:
             a_max = 2.0 * d_max * (fs / MIN_RUN_STEPS) ** 2
             raise _fail(
@@ -411,11 +429,6 @@ def _check_solver_and_study(config: Mapping[str, Any]) -> None:
 
 def _check_package_settings(config: Mapping[str, Any]) -> None:
     """Build every settings object the jobs build, so that their checks run now."""
-    from .contact import SolverSettings
-    from .greens import GreensSettings
-    from .material import material_from_config
-    from .springs import SpringModel
-
     for section, build in (("greens", GreensSettings.from_config), ("springs", SpringModel.from_config),
                            ("solver", SolverSettings.from_config)):
         try:
@@ -439,9 +452,6 @@ def surface_plan(name: str, spec: Mapping[str, Any], base_dir: str | Path = ".")
     dict
         ``element_size`` [m], ``patch_elements``, ``scan`` (header info or None).
     """
-    from . import scans
-    from . import surface as S
-
     try:
         c = S._common(name, spec)
         generator = spec.get("generator")
@@ -518,7 +528,8 @@ def check_config(config: Mapping[str, Any], base_dir: str | Path = ".") -> None:
     Parameters
     ----------
     config : mapping
-        The merged config (after :func:`validate_schema`; schema defaults may be inserted or not).
+        The merged config (after :func:`validate_schema`; schema defaults may be inserted or not,
+        except that a ``rolling`` section needs its ``surfaces``, which validation inserts).
     base_dir : path-like
         Directory against which relative scan paths are resolved (Snakemake's working directory).
 
@@ -536,6 +547,68 @@ def check_config(config: Mapping[str, Any], base_dir: str | Path = ".") -> None:
     for name, spec in config["surfaces"].items():
         surface_plan(name, spec, base_dir)
     _check_rolling(config)
+    _check_stiffness_spectrum(config)
+
+
+def _check_stiffness_spectrum(config: Mapping[str, Any]) -> None:
+    """The ``stiffness_spectrum`` section and its frequency grid against ``greens.sample_rate`` (the
+    grid must lie below fs / 2), as :class:`tyreroad.stiffness.SpectrumSettings` builds them in the job."""
+    try:
+        SpectrumSettings.from_config(config.get("stiffness_spectrum", {})).frequencies(_sample_rate(config))
+    except (ValueError, TypeError) as exc:
+        raise _wrap(exc, "stiffness_spectrum") from None
+
+
+def sensitivity_points(config: Mapping[str, Any], schema_path: str | Path) -> dict[str, dict[str, Any]]:
+    """The sensitivity sweep's points, checked at planning time ({} without a ``sensitivity`` section).
+
+    Checks the section (:class:`tyreroad.sensitivity.SensitivitySettings`), every point's material
+    (its calibration scaling included, :func:`tyreroad.sensitivity.planned_points`) and every
+    point's surface: the study surface preset with the point's ``surface`` overrides, against the
+    JSON schema.
+
+    Parameters
+    ----------
+    config : mapping
+        The validated config.
+    schema_path : path-like
+        ``workflow/schemas/config.schema.yaml``.
+
+    Returns
+    -------
+    dict
+        ``sensitivity.points``: point name -> point settings.
+
+    Raises
+    ------
+    ConfigError
+        Naming ``sensitivity.<key>`` or ``sensitivity.points.<name>.surface.<key>`` and the value.
+    """
+    try:
+        points = planned_points(config)
+    except (ValueError, TypeError, KeyError) as exc:
+        raise _wrap(exc, "sensitivity") from None
+    base = config["surfaces"][config["study"]["surface"]]
+    for name, point in points.items():
+        label = f"sensitivity-{name}"
+        try:
+            validate_schema({**config, "surfaces": {label: point_surface_spec(base, point["surface"])}}, schema_path)
+        except ConfigError as exc:
+            raise ConfigError(str(exc).replace(f"surfaces.{label}", f"sensitivity.points.{name}.surface", 1)) from None
+    return points
+
+
+def rolling_materials(config: Mapping[str, Any]) -> tuple[list[str], str]:
+    """Materials of the rolling passes and the one of the contact map (figure 14).
+
+    The two defaults of the ``rolling`` section that the schema cannot state: ``rolling.materials``
+    defaults to ``study.materials``, ``rolling.reference_material`` to the first of them. (The
+    section's other defaults are the schema's, inserted when Snakemake validates the config, and
+    :class:`tyreroad.rolling.RollingSettings`' for the pass.)
+    """
+    rolling = config.get("rolling") or {}
+    names = list(rolling.get("materials", config["study"]["materials"]))
+    return names, rolling.get("reference_material", names[0])
 
 
 def _check_rolling(config: Mapping[str, Any]) -> None:
@@ -544,7 +617,10 @@ def _check_rolling(config: Mapping[str, Any]) -> None:
     if rolling is None:
         return
     surfaces, materials = config["surfaces"], config["materials"]
-    for i, name in enumerate(rolling.get("surfaces", ["iso10844-strip"])):
+    if "surfaces" not in rolling:
+        raise ConfigError("rolling.surfaces: missing; expected the strips rolled over (validation against "
+                          "workflow/schemas/config.schema.yaml inserts the default)")
+    for i, name in enumerate(rolling["surfaces"]):
         if name not in surfaces:
             raise ConfigError(f"rolling.surfaces[{i}] = {name!r}: not a preset in surfaces (have: {', '.join(sorted(surfaces))})")
         c_here = float(surfaces[name].get("element_size", 1e-3))
@@ -552,15 +628,12 @@ def _check_rolling(config: Mapping[str, Any]) -> None:
         if not math.isclose(c_here, c_study, rel_tol=1e-9):
             raise ConfigError(f"rolling.surfaces[{i}] = {name!r}: element_size {c_here:g} m differs from that of the "
                               f"study surface ({c_study:g} m), for which the greens are computed; expected equal")
-    names = rolling.get("materials", config["study"]["materials"])
+    names, ref = rolling_materials(config)
     for i, name in enumerate(names):
         if name not in materials:
             raise ConfigError(f"rolling.materials[{i}] = {name!r}: not a preset in materials (have: {', '.join(sorted(materials))})")
-    ref = rolling.get("reference_material")
-    if ref is not None and ref not in names:
+    if ref not in names:
         raise ConfigError(f"rolling.reference_material = {ref!r}: expected one of rolling.materials {list(names)}")
-    from .rolling import RollingSettings
-
     try:
         RollingSettings.from_config(rolling)
     except ValueError as exc:
@@ -628,18 +701,15 @@ def check_job(config: Mapping[str, Any], target: str, wildcards: Mapping[str, st
                 f"'{{:g}}' (e.g. dynamic_500.nc)"
             )
         if mode == "dynamic":
-            fs = float(config.get("greens", {}).get("sample_rate", 51200.0))
-            d_max = float(config.get("solver", {}).get("d_max", 2.5e-4))
-            if math.ceil(fs * math.sqrt(2.0 * d_max / a) * (1.0 - 1e-12)) < MIN_RUN_STEPS:
+            fs, d_max = _sample_rate(config), _d_max(config)
+            if constant_acceleration_steps(fs, a, d_max) - 1 < MIN_RUN_STEPS:  # time steps after t = 0
                 raise ConfigError(
                     f"{target}: acceleration {a:g} m/s^2 reaches solver.d_max in fewer than {MIN_RUN_STEPS} time "
                     f"steps at greens.sample_rate = {fs:g} Hz; expected at most "
                     f"{2.0 * d_max * (fs / MIN_RUN_STEPS) ** 2:.4g} m/s^2"
                 )
     if material is not None and mode is not None:
-        from .material import material_from_config
-
-        d_max = float(config.get("solver", {}).get("d_max", 2.5e-4))
+        d_max = _d_max(config)
         h = material_from_config(material, materials).thickness
         if d_max >= 0.5 * h:
             raise ConfigError(
@@ -656,124 +726,3 @@ def check_job(config: Mapping[str, Any], target: str, wildcards: Mapping[str, st
                 f"{study_surface!r} ({c_greens:g} m), for which the Green's functions are computed; expected equal "
                 f"element sizes"
             )
-
-
-# ---------------------------------------------------------------------------------------------
-# Which code each stage runs
-# ---------------------------------------------------------------------------------------------
-#: Entry modules of each workflow stage (rule): the modules its ``tyreroad.pipeline.run_*``
-#: function imports. :func:`stage_modules` adds everything these import, recursively.
-#: A new stage, or a stage function that imports a new module, extends this map.
-STAGE_MODULES: dict[str, tuple[str, ...]] = {
-    "prepare_surface": ("log", "pipeline", "surface", "plots.surface"),
-    "element_springs": ("log", "pipeline", "springs"),
-    "springs_figure": ("log", "pipeline", "plots.springs"),
-    "greens": ("log", "pipeline", "greens", "material"),
-    "greens_figures": ("log", "pipeline", "plots.greens"),
-    "contact": ("log", "pipeline", "contact", "material"),
-    "study": ("log", "pipeline", "study"),
-    "study_figures": ("log", "pipeline", "plots.study", "study"),
-    "report": ("log", "pipeline", "report", "study", "hysteresis", "stiffness"),
-    "loading": ("log", "pipeline", "contact", "material", "loading", "hysteresis"),
-    "loading_study": ("log", "pipeline", "hysteresis"),
-    "hysteresis_figure": ("log", "pipeline", "plots.hysteresis"),
-    # stiffness imports the spectrum's helpers (greens' element FRF, the contact solve) inside its
-    # functions, so that the contact stage, which only uses its tangent, does not depend on greens.py
-    "stiffness_spectrum": ("log", "pipeline", "contact", "material", "stiffness", "greens", "loading", "springs"),
-    "stiffness_figure": ("log", "pipeline", "plots.stiffness", "stiffness"),
-    "sensitivity": ("log", "sensitivity"),
-    "rolling": ("log", "pipeline", "contact", "rolling"),
-    "rolling_study": ("log", "pipeline", "rolling"),
-    "rolling_figures": ("log", "pipeline", "plots.rolling"),
-    "rolling_report": ("log", "pipeline", "rolling", "report"),
-}
-
-_PACKAGE_DIR = Path(__file__).resolve().parent
-#: Modules whose function-level imports are lazy dispatch, not code of every stage.
-_LAZY_DISPATCH = {"__init__", "pipeline", "stiffness"}
-
-
-def _module_file(module: str, package_dir: Path) -> Path | None:
-    base = package_dir.joinpath(*module.split("."))
-    for cand in (base.with_suffix(".py"), base / "__init__.py"):
-        if cand.is_file():
-            return cand
-    return None
-
-
-def _imports_of(module: str, package_dir: Path, top_level_only: bool) -> set[str]:
-    """tyreroad modules imported by ``module`` (relative to the package), read from its source."""
-    path = _module_file(module, package_dir)
-    return set(_imports_in_source(module, package_dir, path.stat().st_mtime_ns, top_level_only))
-
-
-@lru_cache(maxsize=256)
-def _imports_in_source(module: str, package_dir: Path, mtime_ns: int, top_level_only: bool) -> frozenset[str]:
-    path = _module_file(module, package_dir)
-    tree = ast.parse(path.read_text(), filename=str(path))
-    is_pkg = path.name == "__init__.py"
-    if module == "__init__":
-        parent: list[str] = []
-    else:
-        parent = module.split(".") if is_pkg else module.split(".")[:-1]
-    nodes = tree.body if top_level_only else list(ast.walk(tree))
-    found: set[str] = set()
-    for node in nodes:
-        if isinstance(node, ast.Import):
-            for alias in node.names:
-                if alias.name == "tyreroad" or alias.name.startswith("tyreroad."):
-                    found.add(alias.name[len("tyreroad."):] if "." in alias.name else "__init__")
-        elif isinstance(node, ast.ImportFrom):
-            if node.level:
-                base = parent[: len(parent) - (node.level - 1)] if node.level > 1 else parent
-                mod = ".".join(base + ([node.module] if node.module else []))
-            elif node.module and (node.module == "tyreroad" or node.module.startswith("tyreroad.")):
-                mod = node.module[len("tyreroad."):] if "." in node.module else ""
-            else:
-                continue
-            for alias in node.names:
-                sub = f"{mod}.{alias.name}" if mod else alias.name
-                if _module_file(sub, package_dir) is not None:
-                    found.add(sub)
-                elif mod:
-                    found.add(mod)
-                else:
-                    found.add("__init__")
-    return frozenset(found)
-
-
-def stage_modules(stage: str, package_dir: str | Path | None = None) -> list[str]:
-    """All tyreroad modules a stage runs: its entry modules and what they import, recursively.
-
-    Imports anywhere in a module count (also those inside functions), except for
-    ``tyreroad.pipeline`` and ``tyreroad/__init__.py``, whose functions import other modules
-    lazily on behalf of one stage or of a user: only their module-level imports count, the
-    per-stage ones are the entries of :data:`STAGE_MODULES`. Package ``__init__`` files on the way
-    are included (Python runs them on import).
-    """
-    package_dir = Path(package_dir) if package_dir is not None else _PACKAGE_DIR
-    if stage not in STAGE_MODULES:
-        raise KeyError(f"unknown stage {stage!r}; expected one of {sorted(STAGE_MODULES)}")
-    todo = ["__init__", *STAGE_MODULES[stage]]
-    seen: set[str] = set()
-    while todo:
-        mod = todo.pop()
-        if mod in seen:
-            continue
-        seen.add(mod)
-        parts = mod.split(".")
-        for k in range(1, len(parts)):
-            todo.append(".".join(parts[:k]))  # the subpackage's __init__
-        todo.extend(_imports_of(mod, package_dir, top_level_only=mod in _LAZY_DISPATCH) - seen)
-    return sorted(seen)
-
-
-def source_hash(stage: str, package_dir: str | Path | None = None) -> str:
-    """SHA-256 (first 16 hex digits) of the source of every tyreroad module the stage runs."""
-    package_dir = Path(package_dir) if package_dir is not None else _PACKAGE_DIR
-    digest = hashlib.sha256()
-    for mod in stage_modules(stage, package_dir):
-        path = _module_file(mod, package_dir)
-        digest.update(str(path.relative_to(package_dir)).encode() + b"\0")
-        digest.update(path.read_bytes() + b"\0")
-    return digest.hexdigest()[:16]

@@ -7,17 +7,23 @@ from snakemake.utils import min_version, validate
 
 min_version("8.10")
 
+from tyreroad.cluster import job_resources as cluster_resources
 from tyreroad.config import (
-    STAGE_MODULES,
     check_config,
     check_config_files,
     check_job,
-    source_hash,
+    rolling_materials,
+    sensitivity_points,
     validate_schema,
 )
+from tyreroad.pipeline import material_variants as _material_variants
+from tyreroad.pipeline import resolved_material_config as _resolved_material_config
+from tyreroad.pipeline import spring_material_inputs as _spring_material_inputs
+from tyreroad.provenance import STAGE_MODULES, source_hash
 
+SCHEMA = Path(workflow.current_basedir) / "../schemas/config.schema.yaml"
 check_config_files(workflow.configfiles)  # duplicate keys are errors (YAML keeps the last silently)
-validate_schema(config, Path(workflow.current_basedir) / "../schemas/config.schema.yaml")
+validate_schema(config, SCHEMA)
 validate(config, "../schemas/config.schema.yaml")  # inserts the schema's defaults
 check_config(config)
 
@@ -31,7 +37,9 @@ wildcard_constraints:
     speed=r"[0-9][0-9.e+\-]*",
 
 
-# Cheap aggregation and plotting jobs run on the submitting host, never as cluster jobs.
+# Cheap aggregation and plotting jobs run on the submitting host, never as cluster jobs. The one
+# list of local rules: all but tyreroad.cluster.CLUSTER_RULES (which carry resources) and the
+# sweep points (sensitivity_point), which run a whole small study each.
 localrules:
     all,
     springs_figure,
@@ -41,9 +49,12 @@ localrules:
     report,
     loading_study,
     hysteresis_figure,
+    stiffness_figure,
+    sensitivity,
     rolling,
     rolling_study,
     rolling_figures,
+    rolling_report,
 
 
 # Every result, log and benchmark of this study lives under R (config key results_dir).
@@ -51,7 +62,7 @@ R = config["results_dir"]
 STUDY = config["study"]
 STUDY_SURFACE = STUDY["surface"]
 
-# Hash of the tyreroad source each stage runs (tyreroad.config.STAGE_MODULES): a rule's params
+# Hash of the tyreroad source each stage runs (tyreroad.provenance.STAGE_MODULES): a rule's params
 # carry it, so a change in the package re-plans exactly the stages whose code changed.
 SOURCE = {stage: source_hash(stage) for stage in STAGE_MODULES}
 
@@ -122,8 +133,12 @@ def stiffness_spectra():
     return [f"{R}/stiffness_spectrum/{STUDY_SURFACE}/{m}.nc" for m in STUDY["materials"]]
 
 
+# The rolling section with the schema's defaults (speeds, quasistatic_speeds, surfaces), inserted by
+# validate() above; the pass settings' defaults are tyreroad.rolling.RollingSettings', and the
+# materials' tyreroad.config.rolling_materials'.
 ROLLING = config.get("rolling", {})
-ROLLING_SURFACES = ROLLING.get("surfaces", ["iso10844-strip"]) if "rolling" in config else []
+ROLLING_SURFACES = ROLLING.get("surfaces", [])
+ROLLING_MATERIALS, ROLLING_REFERENCE = rolling_materials(config) if ROLLING_SURFACES else ([], None)
 
 
 def max_patch_elements(rolling=False):
@@ -181,21 +196,19 @@ def rolling_runs():
     quasi-static at each of rolling.quasistatic_speeds."""
     runs = []
     for surface in ROLLING_SURFACES:
-        for material in ROLLING.get("materials", STUDY["materials"]):
+        for material in ROLLING_MATERIALS:
             runs += [f"{R}/rolling/{surface}/{material}/quasistatic_v{fmt_speed(v)}.nc"
-                     for v in ROLLING.get("quasistatic_speeds", [5, 30])]
-            runs += [f"{R}/rolling/{surface}/{material}/dynamic_v{fmt_speed(v)}.nc"
-                     for v in ROLLING.get("speeds", [5, 10, 20, 30])]
+                     for v in ROLLING["quasistatic_speeds"]]
+            runs += [f"{R}/rolling/{surface}/{material}/dynamic_v{fmt_speed(v)}.nc" for v in ROLLING["speeds"]]
     return runs
 
 
 def rolling_map_runs():
     """The two passes of the contact map (figure 14): the reference material, quasi-static and dynamic
     at the middle speed, on the first strip."""
-    material = ROLLING.get("reference_material", ROLLING.get("materials", STUDY["materials"])[0])
-    speeds = sorted(ROLLING.get("speeds", [5, 10, 20, 30]))
-    surface = ROLLING_SURFACES[0]
-    return [f"{R}/rolling/{surface}/{material}/quasistatic_v{fmt_speed(ROLLING.get('quasistatic_speeds', [5, 30])[0])}.nc",
+    material, surface = ROLLING_REFERENCE, ROLLING_SURFACES[0]
+    speeds = sorted(ROLLING["speeds"])
+    return [f"{R}/rolling/{surface}/{material}/quasistatic_v{fmt_speed(ROLLING['quasistatic_speeds'][0])}.nc",
             f"{R}/rolling/{surface}/{material}/dynamic_v{fmt_speed(speeds[len(speeds) // 2])}.nc"]
 
 
@@ -207,13 +220,8 @@ def rolling_targets():
             *[f"{R}/figures/{name}.png" for name in ROLLING_FIGURES]]
 
 
-# Material helpers come from the package so that the rules and the code resolve presets identically.
-from tyreroad.pipeline import material_variants as _material_variants
-from tyreroad.pipeline import resolved_material_config as _resolved_material_config
-from tyreroad.pipeline import spring_material_inputs as _spring_material_inputs
-from tyreroad.cluster import job_resources as cluster_resources
-
-
+# Material helpers come from the package (imported above) so that the rules and the code resolve
+# presets identically.
 def resolved_material(wildcards):
     """The material preset with its `base:` resolved: a change in the base re-runs every variant."""
     checked(wildcards)

@@ -20,6 +20,9 @@ rule rolling_greens:
         element_size=study_element_size(),
         code=SOURCE["greens"],
     threads: 1
+    resources:  # cluster requests (tyreroad.cluster), from the largest strip and the kept lags
+        mem_mb=lambda w, attempt: cluster_resources("rolling_greens", config, w, attempt)["mem_mb"],
+        runtime=lambda w, attempt: cluster_resources("rolling_greens", config, w, attempt)["runtime"],
     script:
         "../scripts/greens.py"
 
@@ -41,6 +44,9 @@ rule rolling_run:
         solver=config["solver"],
         code=SOURCE["rolling"],
     threads: 1
+    resources:  # cluster requests (tyreroad.cluster), from the strip size and the pass length in steps
+        mem_mb=lambda w, attempt: cluster_resources("rolling_run", config, w, attempt)["mem_mb"],
+        runtime=lambda w, attempt: cluster_resources("rolling_run", config, w, attempt)["runtime"],
     script:
         "../scripts/rolling_run.py"
 
@@ -84,7 +90,6 @@ rule rolling_report:
         f"{R}/logs/rolling_report.log",
     params:
         code=SOURCE["rolling_report"],
-    localrule: True
     threads: 1
     script:
         "../scripts/rolling_report.py"
@@ -93,4 +98,3 @@ rule rolling_report:
 rule rolling:
     input:
         rolling_targets() if ROLLING_SURFACES else [],
-    localrule: True

@@ -1,23 +1,10 @@
 # Sensitivity sweep: what decides claims 5-7 (tyreroad.sensitivity). A named target, not part of
 # the default one:  snakemake -j2 sensitivity  ->  {results_dir}/sensitivity.nc, sensitivity.md,
 # figures/sensitivity.png.  One job per sweep point (config: sensitivity.points).
-from tyreroad.sensitivity import planned_points as _planned_points
 from tyreroad.sensitivity import point_files as _point_files
-from tyreroad.sensitivity import point_surface_spec as _point_surface_spec
 
-# planning-time checks: the section, every point's material and surface preset
-SENSITIVITY_POINTS = _planned_points(config)
-validate(
-    {
-        **config,
-        "surfaces": {
-            f"sensitivity-{name}": _point_surface_spec(config["surfaces"][STUDY_SURFACE], point["surface"])
-            for name, point in SENSITIVITY_POINTS.items()
-        }
-        or config["surfaces"],
-    },
-    "../schemas/config.schema.yaml",
-)
+# planning-time checks (tyreroad.config.sensitivity_points): the section, every point's material and surface preset
+SENSITIVITY_POINTS = sensitivity_points(config, SCHEMA)
 # the section without its points: changing one point re-runs that point only
 SENSITIVITY_GLOBALS = {k: v for k, v in config.get("sensitivity", {}).items() if k != "points"}
 
@@ -57,7 +44,7 @@ rule sensitivity:
         f"{R}/logs/sensitivity.log",
     params:
         sensitivity=SENSITIVITY_GLOBALS,
-    localrule: True
+        code=SOURCE["sensitivity"],
     threads: 1
     script:
         "../scripts/sensitivity.py"

@@ -1,15 +1,8 @@
 # Dynamic contact stiffness K*(f; d0) (SPEC 11, tyreroad.stiffness): per study material the complex
 # contact spring about the relaxed preload state, figure 9, and (rule report) a report section.
-from tyreroad.stiffness import SpectrumSettings as _SpectrumSettings
-
-# planning-time check of the section and of its frequencies against the kernel's sample rate
+# The section and its frequencies against the kernel's sample rate are checked at planning time by
+# tyreroad.config.check_config (common.smk).
 STIFFNESS_SPECTRUM = config.get("stiffness_spectrum", {})
-_SpectrumSettings.from_config(STIFFNESS_SPECTRUM).frequencies(config["greens"].get("sample_rate", 51200.0))
-
-
-# plotting on the submitting host, never as a cluster job
-localrules:
-    stiffness_figure,
 
 
 rule stiffness_spectrum:
