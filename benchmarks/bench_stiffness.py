@@ -112,8 +112,8 @@ def part_large(cfg, args) -> None:
     import numpy as np
 
     from tyreroad.contact import SolverSettings
-    from tyreroad.greens import offset_table_index, static_element_kernel, unique_offsets
-    from tyreroad.kernel import ElementFRF, LayerKernel
+    from tyreroad.greens import ElementFRF, offset_table_index, static_element_kernel, unique_offsets
+    from tyreroad.kernel import LayerKernel
     from tyreroad.material import material_from_config
     from tyreroad.pipeline import spring_material_inputs
     from tyreroad.springs import SpringModel, SpringTable, element_springs, resolve_spring_modulus

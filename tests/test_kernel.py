@@ -8,9 +8,9 @@ import pytest
 
 from tyreroad.contact import SolverSettings, run_loading_path, solve_path
 from tyreroad.greens import greens_dataset
-from tyreroad.history import DenseHistory
 from tyreroad.influence import offset_matrix
-from tyreroad.kernel import ElementFRF, LayerKernel, MemoryModel
+from tyreroad.greens import ElementFRF
+from tyreroad.kernel import LayerKernel, MemoryModel
 from tyreroad.loading import LoadingPreset
 from tyreroad.material import material_from_config
 from tyreroad.springs import SpringTable, linear_tables

@@ -15,7 +15,8 @@ from tyreroad.material import material_from_config
 from tyreroad.springs import SpringTable
 from tyreroad.convolution import OffsetConvolution
 from tyreroad.influence import OffsetInfluence, contact_set_stiffness, contact_set_stiffness_krylov, offset_matrix
-from tyreroad.kernel import ElementFRF, LayerKernel
+from tyreroad.greens import ElementFRF
+from tyreroad.kernel import LayerKernel
 from tyreroad.newton import DenseSubstrate, FFTSubstrate
 from tyreroad.stiffness import (
     SpectrumSettings,

@@ -92,6 +92,7 @@ __all__ = [
     "unique_offsets",
     "offset_table_index",
     "element_frf",
+    "ElementFRF",
     "static_element_kernel",
     "time_kernel",
     "precursor_correction",
@@ -822,6 +823,35 @@ def precursor_correction(n_precursor: int, taps: int = PRECURSOR_TAPS, band: flo
 
 # ----------------------------------------------------------------------------------------------
 # dataset
+
+
+class ElementFRF:
+    """The exact element FRF of a material's layer, g(dx, dy, f) (:func:`element_frf`).
+
+    The layer's frequency response for :class:`tyreroad.kernel.LayerKernel` and the K*(f) solver
+    (:mod:`tyreroad.stiffness`); f = 0 uses E(omega -> 0).
+
+    Parameters
+    ----------
+    material : tyreroad.material.Material
+        The layer (modulus(omega), poisson, density, thickness).
+    element_size : float
+        c [m].
+    """
+
+    def __init__(self, material, element_size: float):
+        self.material = material
+        self.element_size = checks.real("element_size", element_size, positive=True)
+
+    def frequency_response(self, frequencies, shape) -> np.ndarray:
+        """Complex offset tables g(dx, dy, f) [m/N], shape (n_f, 2 nx - 1, 2 ny - 1), at f [Hz]."""
+        c, mat = self.element_size, self.material
+        uniq = unique_offsets(shape)
+        _, _, index = offset_table_index(shape)
+        omega = 2 * np.pi * np.asarray(frequencies, dtype=float)
+        modulus = np.asarray(mat.modulus(omega), dtype=complex)
+        frf = element_frf(uniq * c, c, omega, modulus, mat.poisson, mat.density, mat.thickness)
+        return frf[:, index]
 
 
 def _attrs(units, long_name, **extra):

@@ -12,8 +12,9 @@ solver piece needs it:
   G_0 (:class:`tyreroad.influence.OffsetInfluence`, dense or FFT) also gives the quasi-static tangent
   and the next step's predictor, and the history of the kept lags plus the memory's;
 * its **frequency response** (:meth:`LayerKernel.frequency_response`), the complex offset tables
-  G(f) that the contact stiffness K*(f) solves over (the exact element FRF of the material when
-  the kernel knows it, else the transform of the kept lags and the memory);
+  G(f) that the contact stiffness K*(f) solves over (the exact element FRF of the material,
+  :class:`tyreroad.greens.ElementFRF`, when the kernel is given it, else the transform of the kept
+  lags and the memory);
 * the **backing force** of a run (the force at the rigid belt).
 
 :meth:`LayerKernel.from_greens` is the one reader of a greens dataset's kernel variables; nothing
@@ -29,14 +30,13 @@ import functools
 import logging
 import math
 from dataclasses import dataclass, field
-from typing import Callable, Protocol, runtime_checkable
+from typing import Any, Callable, Protocol, runtime_checkable
 
 import numpy as np
 import xarray as xr
 
 from . import checks
 from .convolution import OffsetConvolution, check_offset_kernel
-from .greens import element_frf, offset_table_index, unique_offsets
 from .history import DenseHistory, FFTHistory, History, HistorySum
 from .influence import OffsetInfluence
 from .layer import backing_force
@@ -46,7 +46,7 @@ from .solver import SolverSettings
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["MemoryModel", "ElementFRF", "LayerKernel", "KERNEL_MODES"]
+__all__ = ["MemoryModel", "LayerKernel", "KERNEL_MODES"]
 
 #: The kinds of kernel a greens file holds, by the run mode that uses them.
 KERNEL_MODES = ("dynamic", "quasistatic")
@@ -78,35 +78,6 @@ class MemoryModel(Protocol):
         ...
 
 
-class ElementFRF:
-    """The exact element FRF of a material's layer, g(dx, dy, f) (:func:`tyreroad.greens.element_frf`).
-
-    What :meth:`LayerKernel.frequency_response` returns for a kernel read with its material, and
-    what the K*(f) solver takes as the layer's response (f = 0 uses E(omega -> 0)).
-
-    Parameters
-    ----------
-    material : tyreroad.material.Material
-        The layer (modulus(omega), poisson, density, thickness).
-    element_size : float
-        c [m].
-    """
-
-    def __init__(self, material, element_size: float):
-        self.material = material
-        self.element_size = checks.real("element_size", element_size, positive=True)
-
-    def frequency_response(self, frequencies, shape) -> np.ndarray:
-        """Complex offset tables g(dx, dy, f) [m/N], shape (n_f, 2 nx - 1, 2 ny - 1), at f [Hz]."""
-        c, mat = self.element_size, self.material
-        uniq = unique_offsets(shape)
-        _, _, index = offset_table_index(shape)
-        omega = 2 * np.pi * np.asarray(frequencies, dtype=float)
-        modulus = np.asarray(mat.modulus(omega), dtype=complex)
-        frf = element_frf(uniq * c, c, omega, modulus, mat.poisson, mat.density, mat.thickness)
-        return frf[:, index]
-
-
 @dataclass(frozen=True, eq=False)
 class LayerKernel:
     """The layer's element response as the contact solver uses it (see the module docstring).
@@ -125,10 +96,10 @@ class LayerKernel:
         The kernel beyond the kept lags (needed by dynamic runs longer than the kept lags).
     element_size : float, optional
         c [m] of the elements the kernel was computed for (checked against the surface's).
-    response : ElementFRF, optional
-        The exact frequency response (any object with ``frequency_response(frequencies, shape)``
-        returning complex offset tables [m/N]); without it, :meth:`frequency_response` transforms
-        the kept lags and the memory.
+    response : optional
+        The exact frequency response: any object with ``frequency_response(frequencies, shape)``
+        returning complex offset tables [m/N] (:class:`tyreroad.greens.ElementFRF`, the layer's
+        element FRF); without it, :meth:`frequency_response` transforms the kept lags and the memory.
     backing : callable, optional
         Total surface force [N] per step -> force at the rigid backing [N] (dynamic kernels;
         a static kernel's backing force is its surface force).
@@ -141,7 +112,7 @@ class LayerKernel:
     sample_rate: float | None = None
     memory: MemoryModel | None = None
     element_size: float | None = None
-    response: ElementFRF | None = field(default=None, repr=False)
+    response: Any = field(default=None, repr=False)
     backing: Callable[[np.ndarray], np.ndarray] | None = field(default=None, repr=False)
     name: str = "kernel"
 
@@ -179,7 +150,7 @@ class LayerKernel:
         return cls(lags, False, float(sample_rate), memory, **kwargs)
 
     @classmethod
-    def from_greens(cls, greens: xr.Dataset, mode: str, material=None) -> "LayerKernel":
+    def from_greens(cls, greens: xr.Dataset, mode: str, material=None, response=None) -> "LayerKernel":
         """The kernel of a ``mode`` run from a greens dataset (docs/data_contracts.md "Greens dataset").
 
         Parameters
@@ -190,15 +161,16 @@ class LayerKernel:
             ``dynamic``: the time-domain lags ``g`` with the creep tail (when the file has one);
             ``quasistatic``: ``g_static``.
         material : tyreroad.material.Material, optional
-            The layer's material: gives the exact element FRF (:meth:`frequency_response`) and the
-            backing force of dynamic runs.
+            The layer's material: the backing force of dynamic runs.
+        response : optional
+            The exact frequency response (:class:`tyreroad.greens.ElementFRF` of the material;
+            kept out of this module so that the contact stages do not run the greens code).
         """
         if mode not in KERNEL_MODES:
             raise ValueError(f"mode: expected one of {KERNEL_MODES}, got {mode!r}")
         name = str(greens.attrs.get("material", getattr(material, "name", "kernel")))
         c = greens.attrs.get("element_size")
         c = None if c is None else float(c)
-        response = None if material is None or c is None else ElementFRF(material, c)
         fs = float(greens.attrs["sample_rate"])
         if mode == "quasistatic":
             kernel = cls.quasistatic(greens["g_static"].transpose("dx", "dy").values, c, name)

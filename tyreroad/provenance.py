@@ -33,24 +33,22 @@ STAGE_MODULES: dict[str, tuple[str, ...]] = {
     "contact": ("log", "pipeline", "contact", "material"),
     "study": ("log", "pipeline", "study"),
     "study_figures": ("log", "pipeline", "plots.study", "study"),
-    "report": ("log", "pipeline", "report", "study", "hysteresis", "stiffness"),
+    "report": ("log", "pipeline", "report", "study", "stiffness"),
     "loading": ("log", "pipeline", "contact", "material", "loading", "hysteresis"),
     "loading_study": ("log", "pipeline", "hysteresis"),
     "hysteresis_figure": ("log", "pipeline", "plots.hysteresis"),
-    # stiffness imports the spectrum's helpers (greens' element FRF, the contact solve) inside its
-    # functions, so that the contact stage, which only uses its tangent, does not depend on greens.py
     "stiffness_spectrum": ("log", "pipeline", "contact", "material", "stiffness", "greens", "loading", "springs"),
     "stiffness_figure": ("log", "pipeline", "plots.stiffness", "stiffness"),
     "sensitivity": ("log", "sensitivity"),
     "rolling": ("log", "pipeline", "contact", "rolling"),
     "rolling_study": ("log", "pipeline", "rolling"),
     "rolling_figures": ("log", "pipeline", "plots.rolling"),
-    "rolling_report": ("log", "pipeline", "rolling", "report"),
+    "rolling_report": ("log", "pipeline", "report"),
 }
 
 _PACKAGE_DIR = Path(__file__).resolve().parent
 #: Modules whose function-level imports are lazy dispatch, not code of every stage.
-_LAZY_DISPATCH = {"__init__", "pipeline", "stiffness"}
+_LAZY_DISPATCH = {"__init__", "pipeline"}
 
 
 def _module_file(module: str, package_dir: Path) -> Path | None:

@@ -67,6 +67,7 @@ import xarray as xr
 
 from . import checks
 from .contact import solve_path
+from .greens import ElementFRF
 from .influence import OffsetInfluence, contact_set_solve, contact_set_stiffness_krylov
 from .kernel import LayerKernel
 from .loading import uniform_indentation_grid
@@ -317,7 +318,7 @@ def stiffness_spectrum(
         Element spring tables.
     relaxed : tyreroad.kernel.LayerKernel
         The static kernel of the relaxed state (the greens file's g_static).
-    response : tyreroad.kernel.ElementFRF or tyreroad.kernel.LayerKernel
+    response : tyreroad.greens.ElementFRF or tyreroad.kernel.LayerKernel
         The layer's frequency response G(dx, dy, f) (``frequency_response(frequencies, shape)``):
         the material's exact element FRF, or a kernel's own transfer function.
     material : tyreroad.material.Material
@@ -468,8 +469,8 @@ def spectrum_from_datasets(surface: xr.Dataset, springs: xr.Dataset, greens: xr.
     relaxed.check_element_size(surface.attrs.get("element_size"))
     z1 = surface["z1"].transpose("ex", "ey").values
     table = SpringTable.from_dataset(springs)
-    return stiffness_spectrum(z1, table, relaxed, relaxed.response, material, relaxed.sample_rate, spectrum,
-                              settings, threads, method)
+    return stiffness_spectrum(z1, table, relaxed, ElementFRF(material, relaxed.element_size), material,
+                              relaxed.sample_rate, spectrum, settings, threads, method)
 
 
 # --------------------------------------------------------------------------------------------
