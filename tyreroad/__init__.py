@@ -6,10 +6,14 @@ Vib. 2014), cited in one place: every module refers to this constant.
 Modules, one per concept: ``surface`` (road patches), ``texture`` (ISO 13473 texture statistics),
 ``scans`` (measured scans), ``config`` (planning-time config checks), ``springs`` (element
 contact springs), ``material`` (visco-elastic tread), ``layer`` (layer compliance), ``greens``
-(element Green's functions), ``contact`` (time-marching contact solver), with ``loading`` (prescribed motions), ``history``
-(displacement from past forces), ``newton`` (the step solve), ``convolution`` (FFT sums), ``study`` (aggregation),
-``report`` (claims table), ``plots`` (figures), ``io`` (netCDF with provenance), ``pipeline``
-(one function per workflow stage), ``reference`` (analytic oracles).
+(element Green's functions), ``kernel`` (the layer kernel the solver uses, read once from a greens
+file), ``influence`` (the influence operator G and the contact-set stiffness), ``contact``
+(time-marching contact solver), with ``solver`` (its settings), ``loading`` (prescribed motions),
+``history`` (displacement from past forces), ``memory`` (the creep beyond the kept lags),
+``newton`` (the step solve), ``convolution`` (FFT sums), ``stiffness`` (K*(f; d0)), ``rolling``
+(rolling contact), ``study`` (aggregation), ``report`` (claims table and report sections),
+``plots`` (figures), ``io`` (netCDF with provenance), ``provenance`` (stage source hashes),
+``pipeline`` (one function per workflow stage), ``reference`` (analytic oracles).
 """
 
 from importlib.metadata import PackageNotFoundError, version
