@@ -78,6 +78,7 @@ import xarray as xr
 from numba import njit, prange
 
 from . import checks, layer
+from .influence import offset_influences
 from .memory import fit_retardation_spectrum, wrapped_creep
 from .reference import love
 
@@ -842,6 +843,10 @@ class ElementFRF:
     def __init__(self, material, element_size: float):
         self.material = material
         self.element_size = checks.real("element_size", element_size, positive=True)
+
+    def frequency_influences(self, frequencies, shape, workers: int = 1) -> list:
+        """The influence operator G(f) of each frequency (:func:`tyreroad.influence.offset_influences`)."""
+        return offset_influences(self.frequency_response(frequencies, shape), frequencies, shape, workers)
 
     def frequency_response(self, frequencies, shape) -> np.ndarray:
         """Complex offset tables g(dx, dy, f) [m/N], shape (n_f, 2 nx - 1, 2 ny - 1), at f [Hz]."""

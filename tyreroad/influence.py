@@ -44,6 +44,7 @@ __all__ = [
     "offset_matrix_index",
     "offset_matrix",
     "OffsetInfluence",
+    "offset_influences",
     "Tangent",
     "contact_set_stiffness",
     "contact_set_solve",
@@ -186,6 +187,27 @@ class OffsetInfluence:
 
     def _apply_real(self, field: np.ndarray) -> np.ndarray:
         return self.convolution.apply_lag(field, 0)
+
+
+def offset_influences(tables, frequencies, shape, workers: int = 1) -> list[OffsetInfluence]:
+    """One :class:`OffsetInfluence` per frequency of a frequency response given as offset tables.
+
+    The tables at f = 0 are taken real (the static response: a real, symmetric operator that the
+    contact-set solvers treat by Cholesky or CG).
+
+    Parameters
+    ----------
+    tables : array_like
+        G(dx, dy, f) [m/N], shape (n_f, 2 nx - 1, 2 ny - 1), complex.
+    frequencies : array_like
+        f [Hz], shape (n_f,).
+    shape : tuple of int
+        Patch (nx, ny).
+    workers : int
+        FFT threads.
+    """
+    f = np.asarray(frequencies, dtype=float)
+    return [OffsetInfluence(t.real if fj == 0.0 else t, shape, workers) for t, fj in zip(tables, f)]
 
 
 @dataclass(frozen=True)

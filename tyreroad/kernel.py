@@ -38,7 +38,7 @@ import xarray as xr
 from . import checks
 from .convolution import OffsetConvolution, check_offset_kernel
 from .history import DenseHistory, FFTHistory, History, HistorySum
-from .influence import OffsetInfluence
+from .influence import OffsetInfluence, offset_influences
 from .layer import backing_force
 from .memory import RetardationSpectrum, TailModel
 from .newton import DenseSubstrate, FFTSubstrate, Substrate
@@ -292,6 +292,15 @@ class LayerKernel:
             tail = self.memory.frequency_response(f, self.sample_rate)
             tables = tables + tail[:, cx - (nx - 1): cx + nx, cy - (ny - 1): cy + ny]
         return tables
+
+    def frequency_influences(self, frequencies, shape, workers: int = 1) -> list:
+        """The influence operator G(f) on the patch at each frequency (what K*(f) solves over).
+
+        Translation-invariant kernels give :class:`tyreroad.influence.OffsetInfluence` operators of
+        :meth:`frequency_response` (real at f = 0); a kernel that is not translation invariant
+        overrides this with operators of its own (``block(active)``, ``apply(v)``, ``g_self``).
+        """
+        return offset_influences(self.frequency_response(frequencies, shape), frequencies, shape, workers)
 
     def relaxed(self) -> "LayerKernel":
         """The static kernel of the fully relaxed layer: sum_l g[dx, dy, l] over the kept lags and the

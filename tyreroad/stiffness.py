@@ -68,7 +68,7 @@ import xarray as xr
 from . import checks
 from .contact import solve_path
 from .greens import ElementFRF
-from .influence import OffsetInfluence, contact_set_solve, contact_set_stiffness_krylov
+from .influence import contact_set_solve, contact_set_stiffness_krylov
 from .kernel import LayerKernel
 from .loading import uniform_indentation_grid
 from .solver import SolverSettings
@@ -319,8 +319,9 @@ def stiffness_spectrum(
     relaxed : tyreroad.kernel.LayerKernel
         The static kernel of the relaxed state (the greens file's g_static).
     response : tyreroad.greens.ElementFRF or tyreroad.kernel.LayerKernel
-        The layer's frequency response G(dx, dy, f) (``frequency_response(frequencies, shape)``):
-        the material's exact element FRF, or a kernel's own transfer function.
+        The layer's frequency response as influence operators G(f) on the patch
+        (``frequency_influences(frequencies, shape, workers)``, real at f = 0): the material's exact
+        element FRF, or a kernel's own transfer function (or a kernel's own operators).
     material : tyreroad.material.Material
         The tread material (its name and moduli are recorded; E_qs vs E(0) is checked).
     sample_rate : float
@@ -354,7 +355,7 @@ def stiffness_spectrum(
     states = preload_states(z1, springs, relaxed, spectrum.preloads, settings, threads)
     t_states = time.perf_counter() - t0
     # f = 0 first: the relaxed limit, E(omega -> 0)
-    tables = response.frequency_response(np.concatenate([[0.0], freq]), shape)
+    influences = response.frequency_influences(np.concatenate([[0.0], freq]), shape, threads)
     t_frf = time.perf_counter() - t0 - t_states
     n_p, n_f = states.preload.size, freq.size + 1
     values = np.zeros((n_p, n_f), dtype=complex)
@@ -367,12 +368,11 @@ def stiffness_spectrum(
                 continue
             s = np.sqrt(k_flat[p, active])
             for j in range(n_f):
-                g_cc = OffsetInfluence(tables[j], shape).block(active)
-                values[p, j] = contact_set_solve(g_cc.real if j == 0 else g_cc, s)
+                values[p, j] = contact_set_solve(influences[j].block(active), s)
     else:
         starts = [None] * n_p
         for j in range(n_f):
-            op = OffsetInfluence(tables[j].real if j == 0 else tables[j], shape, threads)
+            op = influences[j]
             for p in range(n_p):
                 k = states.spring_stiffness[p]
                 start = starts[p]
