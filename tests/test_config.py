@@ -294,3 +294,45 @@ def test_rolling_materials_default_to_the_study_and_its_first():
     flat["rolling"].pop("quasistatic_speeds")
     validate(flat, SCHEMA)
     assert flat["rolling"]["quasistatic_speeds"] == [5, 30]
+
+
+# --------------------------------------------------------------------------------------------
+# Every overlay under config/ runs as shipped
+# --------------------------------------------------------------------------------------------
+#: The targets each shipped overlay documents (its header's snakemake command); () is the default target.
+OVERLAY_TARGETS = {"test.yaml": (), "footprint.yaml": (), "rolling-flat.yaml": ("rolling",)}
+_SURFACES_DONE: dict = {}  # surface specs already run, across overlays (YAML text -> heights)
+
+
+def test_every_shipped_overlay_is_covered():
+    shipped = {p.name for p in (ROOT / "config").glob("*.yaml")} - {"config.yaml"}
+    assert shipped == set(OVERLAY_TARGETS)
+
+
+@pytest.mark.parametrize("overlay", sorted(OVERLAY_TARGETS))
+def test_every_shipped_overlay_runs_its_surfaces_and_plans_the_rest(overlay, tmp_path):
+    """Each overlay's surface presets run through the surface stage as the validated config gives
+    them (schema defaults filled in, as Snakemake does), and its documented target plans."""
+    from tyreroad.surface import prepare_surface
+
+    cfg = load_config(ROOT / "config" / "config.yaml", ROOT / "config" / overlay)
+    validate(cfg, SCHEMA)  # fills in the schema's defaults, as the workflow does
+    used = {cfg["study"]["surface"]}
+    if "rolling" in OVERLAY_TARGETS[overlay]:
+        used |= set(cfg["rolling"]["surfaces"])
+    for name in sorted(used):
+        key = yaml.safe_dump(cfg["surfaces"][name], sort_keys=True)
+        if key not in _SURFACES_DONE:
+            ds = prepare_surface(name, cfg["surfaces"][name])
+            _SURFACES_DONE[key] = ds["z1"].shape
+        nx, ny = cfg["surfaces"][name]["patch_elements"]
+        assert _SURFACES_DONE[key] == (nx, ny), name
+    for item in ("Snakefile", "workflow", "config"):
+        src = ROOT / item
+        (shutil.copytree if src.is_dir() else shutil.copy)(src, tmp_path / item)
+    # targets before --configfile: its list of files would take them for config files
+    proc = subprocess.run([sys.executable, "-m", "snakemake", "-n", "-j2", *OVERLAY_TARGETS[overlay],
+                           "--configfile", "config/config.yaml", f"config/{overlay}"],
+                          cwd=tmp_path, capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-3000:]
+    assert "prepare_surface" in proc.stdout + proc.stderr
