@@ -57,6 +57,7 @@ from .loading import IndentationPath, Loading, LoadingPreset, constant_accelerat
 from .newton import StepConvergenceError, Substrate, solve_step
 from .solver import SolverSettings
 from .springs import SpringTable
+from .stability import StabilityRecord, stability_record
 
 logger = logging.getLogger(__name__)
 
@@ -112,9 +113,13 @@ class ContactResult:
     backing_force : numpy.ndarray or None
         Total force at the rigid backing [N], shape (n,), when computed (:func:`solve_run`).
     tangent_stiffness : numpy.ndarray or None
-        Quasi-static runs (one-lag kernel): dF/dd of each solved state [N/m], shape (n),
-        1^T [G0|C + diag(1/k)]^-1 1 over the contact set (:class:`tyreroad.stiffness.TangentStiffness`);
-        exact between contact-set changes, so coarse indentation steps keep K(d) exact. None otherwise.
+        Quasi-static runs (static kernel): dF/dd of each solved state [N/m], shape (n),
+        1^T [G0|C + diag(1/k)]^-1 1 over the contact set (the substrate's ``tangent``); exact between
+        contact-set changes, so coarse indentation steps keep K(d) exact. None otherwise.
+    max_spring_stiffness : numpy.ndarray or None
+        The stiffest tangent spring k_e of each step [N/m], shape (n,).
+    stability : tyreroad.stability.StabilityRecord or None
+        Dynamic runs from the stage datasets: the kernel's fs/2 limit and the alternation.
     """
 
     time: np.ndarray | None
@@ -129,6 +134,8 @@ class ContactResult:
     residual: np.ndarray
     backing_force: np.ndarray | None = None
     tangent_stiffness: np.ndarray | None = None
+    max_spring_stiffness: np.ndarray | None = None
+    stability: StabilityRecord | None = None
 
     @property
     def indentation(self) -> np.ndarray:
@@ -162,6 +169,7 @@ class RunRecorder:
         self.newton_iterations = np.zeros(n_steps, dtype=np.int64)
         self.krylov_iterations = np.zeros(n_steps, dtype=np.int64)
         self.residual = np.zeros(n_steps)
+        self.max_spring_stiffness = np.zeros(n_steps)
 
     def store(self, n: int, step, displacement: np.ndarray, tangent: Tangent | None = None) -> None:
         """Record the converged ``step`` (a :class:`tyreroad.newton.StepResult`) of step n, and its
@@ -173,6 +181,7 @@ class RunRecorder:
         self.newton_iterations[n] = step.newton_iterations
         self.krylov_iterations[n] = step.krylov_iterations
         self.residual[n] = step.residual
+        self.max_spring_stiffness[n] = float(np.max(step.stiffness, initial=0.0))
         if self.tangent_stiffness is not None:
             if tangent is None:
                 raise ValueError(f"RunRecorder.store: step {n} has no tangent, but the recorder keeps one per step")
@@ -195,6 +204,7 @@ class RunRecorder:
             krylov_iterations=self.krylov_iterations[:n],
             residual=self.residual[:n],
             tangent_stiffness=None if self.tangent_stiffness is None else self.tangent_stiffness[:n],
+            max_spring_stiffness=self.max_spring_stiffness[:n],
         )
 
 
@@ -411,7 +421,9 @@ def _stage_run(surface: xr.Dataset, springs: xr.Dataset, greens: xr.Dataset, mat
     loading = make_loading(z1, kernel)
     springs_table = SpringTable.checked(table.stiffness, table.force, table.zeta_step, z1.size)
     result = run_loading_path(loading, springs_table, kernel, settings, threads)
-    return dataclasses.replace(result, backing_force=kernel.backing_force(result.force))
+    stability = None if kernel.static else stability_record(kernel, loading.shape, result.max_spring_stiffness,
+                                                            result.force, threads)
+    return dataclasses.replace(result, backing_force=kernel.backing_force(result.force), stability=stability)
 
 
 def solve_loading(
@@ -546,6 +558,8 @@ def _result_dataset(result: ContactResult, attrs: dict) -> xr.Dataset:
             "step", np.asarray(result.tangent_stiffness, dtype=float),
             {"units": "N/m", "long_name": "quasi-static tangent stiffness dF/dd of the solved state, "
              "1^T [G0|C + diag(1/k)]^-1 1 over the contact set"})
+    if result.stability is not None:
+        data_vars.update(result.stability.variables())
     data_vars.update(prescribed_fields)
     return xr.Dataset(data_vars, coords=coords, attrs=attrs)
 

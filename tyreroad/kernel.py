@@ -281,6 +281,12 @@ class LayerKernel:
             raise ValueError("frequencies: expected a 1-D array of finite values >= 0 [Hz]")
         if self.response is not None:
             return np.asarray(self.response.frequency_response(f, tuple(shape)))
+        return self.own_frequency_response(f, shape)
+
+    def own_frequency_response(self, frequencies, shape) -> np.ndarray:
+        """The discrete transfer function of the kernel the march uses, sum_l g[l] exp(-i 2 pi f l / fs)
+        over the kept lags plus the memory's part, as complex offset tables [m/N] (whatever ``response``)."""
+        f = np.asarray(frequencies, dtype=float)
         g = self.table(shape)
         if self.static:
             return np.broadcast_to(g[:, :, 0], (f.size,) + g.shape[:2]).astype(complex)

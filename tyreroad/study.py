@@ -560,7 +560,18 @@ def native_samples(ds: xr.Dataset, src: str, settings: StudySettings) -> dict[st
         out["from_tangent"] = np.array(0)
     out["n_elements"] = np.array(n_elements)
     out["run_samples"] = np.array(n_run)
+    out["fs2_limit_indentation"] = np.array(_fs2_limit_indentation(ds, d))
     return out
+
+
+def _fs2_limit_indentation(ds: xr.Dataset, d: np.ndarray) -> float:
+    """d [m] of the first step whose stiffest spring passes the kernel's fs/2 limit (tyreroad.stability);
+    NaN for a run that stays below it or has no stability record (quasi-static runs)."""
+    if "max_spring_stiffness" not in ds.variables or "nyquist_critical_stiffness" not in ds.variables:
+        return float("nan")
+    past = np.flatnonzero(np.asarray(ds["max_spring_stiffness"].values)[: d.size]
+                          > float(ds["nyquist_critical_stiffness"]))
+    return float(d[past[0]]) if past.size else float("nan")
 
 
 def case_on_grid(run: Mapping[str, np.ndarray], settings: StudySettings) -> dict[str, np.ndarray]:
@@ -638,6 +649,8 @@ _ATTRS = {
         "RMS(K - s K_QS) / RMS(K) over the equivalent range: what the scaled quasi-static model leaves unexplained",
     ),
     "n_elements": ("1", "number of contact elements of the patch"),
+    "fs2_limit_indentation": ("m", "indentation at which the stiffest contact spring first passes the time march's "
+                              "fs/2 stability limit k_crit of its kernel (NaN: never, or a quasi-static run)"),
     "stiffness_from_tangent": (
         "1",
         "1: K at the native samples is the run's stored tangent dF/dd (quasi-static runs), F and K on the "
@@ -697,6 +710,7 @@ def aggregate(contacts: Iterable[xr.Dataset | str | Path], settings: StudySettin
     k_sat_b = np.empty(n_case)
     n_native = np.empty(n_case, dtype=np.int64)
     n_run = np.empty(n_case, dtype=np.int64)
+    fs2_limit = np.empty(n_case)
     from_tangent = np.zeros(n_case, dtype=np.int8)
     for c, key in enumerate(expected):
         run = runs[key]
@@ -708,6 +722,7 @@ def aggregate(contacts: Iterable[xr.Dataset | str | Path], settings: StudySettin
             native_vars[name][c, : d.size] = run[name]
         n_native[c] = d.size
         n_run[c] = int(run["run_samples"])
+        fs2_limit[c] = float(run["fs2_limit_indentation"])
         k_sat[c] = saturated_stiffness(grid, grid_vars["stiffness"][c], settings.saturation_range)
         k_sat_b[c] = saturated_stiffness(grid, grid_vars["backing_stiffness"][c], settings.saturation_range)
         logger.info("case %s: %d native samples, K_sat = %.4g N/m", case_label(*key), d.size, k_sat[c])
@@ -731,6 +746,7 @@ def aggregate(contacts: Iterable[xr.Dataset | str | Path], settings: StudySettin
     data.update({f"native_{name}": var(f"native_{name}", ("case", "sample"), v) for name, v in native_vars.items()})
     data["native_samples"] = var("native_samples", ("case",), n_native)
     data["run_samples"] = var("run_samples", ("case",), n_run)
+    data["fs2_limit_indentation"] = var("fs2_limit_indentation", ("case",), fs2_limit)
     data["equivalent_modulus_scale"] = var("equivalent_modulus_scale", ("case",), scale)
     data["equivalent_misfit"] = var("equivalent_misfit", ("case",), misfit)
     data["saturated_stiffness"] = var("saturated_stiffness", ("case",), k_sat)

@@ -29,6 +29,7 @@ from .sections import (
     material_section,
     rolling_header_section,
     rolling_section,
+    stability_section,
     stiffness_spectrum_section,
     surface_section,
 )
@@ -46,6 +47,7 @@ REPORT_SECTIONS: tuple[Section, ...] = (
     decides_section,
     equivalent_section,
     cases_section,
+    stability_section,
     stiffness_spectrum_section,
     surface_section,
     material_section,

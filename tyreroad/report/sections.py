@@ -27,6 +27,7 @@ __all__ = [
     "decides_section",
     "equivalent_section",
     "cases_section",
+    "stability_section",
     "stiffness_spectrum_section",
     "surface_section",
     "material_section",
@@ -519,6 +520,34 @@ def cases_section(ctx: ReportContext) -> list[str]:
             f"{float(c['saturated_backing_stiffness']) * _MN:.4f} | "
             f"{np.interp(d_c5, d[ok], frac[ok]):.3f} | {f[np.isfinite(f)][-1]:.2f} |"
         )
+    return lines + [""]
+
+
+def stability_section(ctx: ReportContext) -> list[str]:
+    """Which dynamic cases pass the time march's fs/2 stability limit, and from which indentation on."""
+    if ctx.claims is None or "fs2_limit_indentation" not in ctx.claims.study:
+        return []
+    study = ctx.claims.study
+    dynamic = study["mode"].values.astype(str) == "dynamic"
+    labels = study["case"].values.astype(str)[dynamic]
+    limit = study["fs2_limit_indentation"].values[dynamic]
+    past = np.isfinite(limit)
+    lines = ["## Stability of the time march at fs/2", ""]
+    if not past.any():
+        return lines + [f"No dynamic case's contact springs reach the fs/2 stability limit of its kernel "
+                        f"({int(dynamic.sum())} cases).", ""]
+    lines += [
+        f"{int(past.sum())} of {int(dynamic.sum())} dynamic cases reach contact springs stiffer than the fs/2 "
+        "stability limit k_crit = -1/lambda_min(G_d(-1)) of the march's kernel (`tyreroad.stability`): from there "
+        "on the march admits a growing period-2 alternation of the forces. Each contact file records k_crit, the "
+        "stiffest spring of every step and the alternation over the run's last fifth; these runs end before it "
+        "grows visibly, but their K(d) past that indentation is not guaranteed by the march. First indentation "
+        "past the limit [mm]:",
+        "",
+        "| case | d past k_crit [mm] |",
+        "|---|---|",
+    ]
+    lines += [f"| {label} | {d * _MM:.3f} |" for label, d in zip(labels[past], limit[past])]
     return lines + [""]
 
 

@@ -64,6 +64,8 @@ def rolling_dataset(result: RollingResult, info: Mapping[str, float], mode: str,
         "steady_force": ((), mean_force, a("N", "mean total force over the steady part")),
         "steady_loss_force": ((), steady_loss, a("N", "mean belt power over v in the steady part")),
     }
+    if result.stability is not None:
+        data.update(result.stability.variables())
     if surface is not None and "element_x" in surface:
         data["element_x"] = ("ex", surface["element_x"].values, a("m", "x of element centres"))
         data["element_y"] = ("ey", surface["element_y"].values, a("m", "y of element centres"))
@@ -110,6 +112,7 @@ def aggregate_rolling(runs: Sequence[xr.Dataset], band_limits=(100.0, 5000.0)) -
             "work": float(r["work"]), "work_in": float(r["work_in"]), "d0": float(r["d0"]),
             "fluctuation_rms": float(np.std(fluct)) if fluct.size else float("nan"),
             "band_level": levels, "strongest_band": strongest, "chatter": chatter,
+            "fs2_alternation": float(r["fs2_alternation"]) if "fs2_alternation" in r else float("nan"),
             "curve": np.interp(x_grid, r["x_c"].values, f, left=0.0, right=0.0),
             "centre_offset": float(np.nanmean(r["pressure_centre"].values[steady] - r["x_c"].values[steady]))
             if steady.any() else float("nan"),
@@ -131,6 +134,8 @@ def aggregate_rolling(runs: Sequence[xr.Dataset], band_limits=(100.0, 5000.0)) -
         "centre_offset": ("m", "mean pressure centre minus x_c over the steady part (> 0: ahead)"),
         "chatter": ("1", "rms of the fs/2 alternation of the force over the rms fluctuation (> 0.05: the time "
                          "march chattered, the case is not trustworthy)"),
+        "fs2_alternation": ("1", "rms of the fs/2 alternation of the force over the steady part, over the steady "
+                                 "mean force (NaN: quasi-static, or a pass file without a stability record)"),
     }
     data = {k: ("case", np.array([row[k] for row in rows]), a(*v)) for k, v in scal.items()}
     data["band_level"] = (("case", "band"), np.array([row["band_level"] for row in rows]),

@@ -7,6 +7,7 @@ from typing import Sequence
 
 import numpy as np
 
+from ..stability import StabilityRecord
 from .geometry import RollingPass
 
 __all__ = ["RollingResult", "RollingRecorder"]
@@ -36,6 +37,10 @@ class RollingResult:
         Per step.
     residual : numpy.ndarray
         Final max|R| per step [m].
+    max_spring_stiffness : numpy.ndarray
+        The stiffest tangent spring of each step [N/m].
+    stability : tyreroad.stability.StabilityRecord or None
+        Dynamic passes from the stage datasets: the kernel's fs/2 limit and the alternation.
     """
 
     time: np.ndarray
@@ -49,6 +54,8 @@ class RollingResult:
     newton_iterations: np.ndarray
     krylov_iterations: np.ndarray
     residual: np.ndarray
+    max_spring_stiffness: np.ndarray
+    stability: StabilityRecord | None = None
 
 
 class RollingRecorder:
@@ -77,6 +84,7 @@ class RollingRecorder:
         self.newton_iterations = np.zeros(n, dtype=np.int64)
         self.krylov_iterations = np.zeros(n, dtype=np.int64)
         self.residual = np.zeros(n)
+        self.max_spring_stiffness = np.zeros(n)
         self.snapshot_steps = np.asarray(sorted(set(int(s) for s in snapshot_steps)), dtype=np.int64)
         self.snapshots = np.zeros((self.snapshot_steps.size, loading.shape[0] * loading.shape[1]))
 
@@ -93,6 +101,7 @@ class RollingRecorder:
         self.newton_iterations[n] = step.newton_iterations
         self.krylov_iterations[n] = step.krylov_iterations
         self.residual[n] = step.residual
+        self.max_spring_stiffness[n] = float(np.max(step.stiffness, initial=0.0))
         where = np.flatnonzero(self.snapshot_steps == n)
         if where.size:
             self.snapshots[where[0]] = f
@@ -114,4 +123,5 @@ class RollingRecorder:
             newton_iterations=self.newton_iterations[:n].copy(),
             krylov_iterations=self.krylov_iterations[:n].copy(),
             residual=self.residual[:n].copy(),
+            max_spring_stiffness=self.max_spring_stiffness[:n].copy(),
         )

@@ -6,6 +6,7 @@ of :mod:`tyreroad.contact` (:func:`tyreroad.contact.run_loading_path`), unchange
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 
 import numpy as np
@@ -17,6 +18,8 @@ from ..contact import MODES, run_loading_path
 from ..kernel import LayerKernel
 from ..solver import SolverSettings
 from ..springs import SpringTable
+from ..stability import stability_record
+from .analysis import steady_mask
 from .geometry import RollingPass, contact_half_length, pass_limits, pass_positions
 from .recorder import RollingRecorder, RollingResult
 from .settings import RollingSettings
@@ -162,4 +165,9 @@ def solve_rolling_run(surface: xr.Dataset, springs: xr.Dataset, greens: xr.Datas
     ex = surface["element_x"].values
     table = SpringTable.from_dataset(springs)
     spring_table = SpringTable.checked(table.stiffness, table.force, table.zeta_step, z1.size)
-    return solve_rolling(z1, ex, spring_table, kernel, relaxed, speed, settings, solver, threads, d0)
+    result, info = solve_rolling(z1, ex, spring_table, kernel, relaxed, speed, settings, solver, threads, d0)
+    if not kernel.static:
+        steady = steady_mask(result.x_c, info, settings.steady_margin, settings.steady_entry)
+        record = stability_record(kernel, z1.shape, result.max_spring_stiffness, result.force, threads, steady)
+        result = dataclasses.replace(result, stability=record)
+    return result, info
