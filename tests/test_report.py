@@ -443,3 +443,36 @@ def test_report_prose_reads_the_context_thresholds_and_settings(passing_study):
     # the cases table's fraction is read at the context's d: 0.5 (1 - exp(-2)) / (1 - exp(-3)) at 0.1 mm
     row = next(line for line in text.splitlines() if line.startswith("| ref/dynamic/500 |"))
     assert f"| {F_MAX * (1 - math.exp(-2.0)):.3f} |" in row
+
+
+def test_stability_section_lists_the_cases_past_the_fs2_limit():
+    """Synthetic runs with a stability record: a case whose springs pass k_crit at a known step is listed
+    with that indentation and its alternation; without any such case the section says so."""
+    from tyreroad.report.claims import ClaimContext
+    from tyreroad.report.sections import ReportContext, stability_section
+
+    runs = []
+    for key in expected_cases(SETTINGS):
+        ds = run_dataset(key, passing_specs()[key])
+        if key[1] == "dynamic":
+            n = ds.sizes["step"]
+            k_max = np.full(n, 1e4)
+            if key == ("ref", "dynamic", 500.0):
+                k_max[n // 2:] = 3e4  # past the limit from the middle step on
+                d_past = float(ds["indentation"].values[n // 2])
+            ds["max_spring_stiffness"] = ("step", k_max)
+            ds["nyquist_critical_stiffness"] = ((), 2e4)
+            ds["fs2_alternation"] = ((), 3.5e-6 if key[2] == 500.0 else 1e-7)
+        runs.append(ds)
+    study = aggregate(runs, SETTINGS)
+    case = study.study.sel_case(material="ref", mode="dynamic", accel=500)
+    assert float(case["fs2_limit_indentation"]) == d_past
+    assert np.isnan(study.study.sel_case(material="ref", mode="dynamic", accel=50)["fs2_limit_indentation"])
+    ctx = ReportContext(claims=ClaimContext(study, SETTINGS, VARIANTS))
+    text = "\n".join(stability_section(ctx))
+    assert "1 of " in text and f"| ref/dynamic/500 | {d_past * 1e3:.3f} | 3.5e-06 |" in text
+    assert "at most 3.5e-06 of the force" in text
+    quiet = aggregate([r.drop_vars(["max_spring_stiffness", "nyquist_critical_stiffness", "fs2_alternation"],
+                                   errors="ignore") for r in runs], SETTINGS)
+    assert stability_section(ReportContext(claims=ClaimContext(quiet, SETTINGS, VARIANTS)))[2].startswith(
+        "No dynamic case")

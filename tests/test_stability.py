@@ -21,7 +21,8 @@ FS = 51200.0
 def test_alternation_of_a_pure_fs2_component():
     n = np.arange(200)
     assert fs2_alternation(100.0 + 3.0 * (-1.0) ** n) == pytest.approx(0.03, rel=1e-12)
-    assert fs2_alternation(100.0 + 0.5 * n) == pytest.approx(0.0, abs=1e-15)  # a ramp does not alternate
+    # a loading curve does not alternate (cubic: no fourth difference)
+    assert fs2_alternation(100.0 + 0.5 * n + 1e-3 * n**2 + 1e-5 * n**3) == pytest.approx(0.0, abs=1e-12)
     assert np.isnan(fs2_alternation(np.zeros(50)))
     window = n >= 150
     assert fs2_alternation(np.where(window, 10.0 + (-1.0) ** n, 5.0), window=window) == pytest.approx(0.1)

@@ -20,7 +20,7 @@ here). :func:`nyquist_critical_stiffness` computes it (a dense eigen-solve up to
 :data:`tyreroad.solver.FFT_THRESHOLD` elements, Lanczos over the FFT product above).
 
 Every dynamic run records it with the stiffest tangent spring it reached and the fs/2 alternation
-of its total force (:func:`fs2_alternation`): the rms of the second difference over four, a
+of its total force (:func:`fs2_alternation`): the rms of the fourth difference over 16, a
 period-2 alternation's amplitude, over the last fifth of the run, relative to the mean force
 there. A run whose springs pass k_crit is logged as a warning with the step where they did.
 """
@@ -81,9 +81,12 @@ def nyquist_critical_stiffness(kernel: LayerKernel, shape, workers: int = 1) -> 
 def fs2_alternation(force, fraction: float = 0.2, window=None) -> float:
     """rms of the period-2 alternation of a force series over its last ``fraction``, over its mean there [1].
 
-    The alternation amplitude of step n is |F[n+1] - 2 F[n] + F[n-1]| / 4 (a pure fs/2 alternation
-    A (-1)^n gives A). ``window``: a boolean mask of contiguous steps to use instead (a rolling
-    pass's steady part). NaN when the window carries no force or has fewer than three steps.
+    The alternation amplitude of step n is the fourth difference over 16,
+    |F[n+2] - 4 F[n+1] + 6 F[n] - 4 F[n-1] + F[n-2]| / 16: a pure fs/2 alternation A (-1)^n gives A,
+    while a smooth force (a ramp, a loading curve: cubic within five steps) gives nearly nothing (the
+    second difference would report the curvature of a short loading run, F'' dt^2 / 4, as alternation).
+    ``window``: a boolean mask of contiguous steps to use instead (a rolling pass's steady part).
+    NaN when the window carries no force or has fewer than five steps.
     """
     f = np.asarray(force, dtype=float)
     if window is not None:
@@ -91,9 +94,9 @@ def fs2_alternation(force, fraction: float = 0.2, window=None) -> float:
     else:
         window = f[int(math.floor((1.0 - fraction) * f.size)):]
     mean = float(np.mean(np.abs(window))) if window.size else 0.0
-    if window.size < 3 or not mean > 0:
+    if window.size < 5 or not mean > 0:
         return float("nan")
-    return float(np.sqrt(np.mean((0.25 * np.diff(window, 2)) ** 2))) / mean
+    return float(np.sqrt(np.mean((np.diff(window, 4) / 16.0) ** 2))) / mean
 
 
 class StabilityRecord:

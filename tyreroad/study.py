@@ -561,6 +561,8 @@ def native_samples(ds: xr.Dataset, src: str, settings: StudySettings) -> dict[st
     out["n_elements"] = np.array(n_elements)
     out["run_samples"] = np.array(n_run)
     out["fs2_limit_indentation"] = np.array(_fs2_limit_indentation(ds, d))
+    out["fs2_alternation"] = np.array(float(ds["fs2_alternation"]) if "fs2_alternation" in ds.variables
+                                      else float("nan"))
     return out
 
 
@@ -651,6 +653,8 @@ _ATTRS = {
     "n_elements": ("1", "number of contact elements of the patch"),
     "fs2_limit_indentation": ("m", "indentation at which the stiffest contact spring first passes the time march's "
                               "fs/2 stability limit k_crit of its kernel (NaN: never, or a quasi-static run)"),
+    "fs2_alternation": ("1", "the contact run's fs/2 alternation of the force over its last fifth, over the mean "
+                        "force there (tyreroad.stability; NaN: quasi-static)"),
     "stiffness_from_tangent": (
         "1",
         "1: K at the native samples is the run's stored tangent dF/dd (quasi-static runs), F and K on the "
@@ -711,6 +715,7 @@ def aggregate(contacts: Iterable[xr.Dataset | str | Path], settings: StudySettin
     n_native = np.empty(n_case, dtype=np.int64)
     n_run = np.empty(n_case, dtype=np.int64)
     fs2_limit = np.empty(n_case)
+    fs2_alt = np.empty(n_case)
     from_tangent = np.zeros(n_case, dtype=np.int8)
     for c, key in enumerate(expected):
         run = runs[key]
@@ -723,6 +728,7 @@ def aggregate(contacts: Iterable[xr.Dataset | str | Path], settings: StudySettin
         n_native[c] = d.size
         n_run[c] = int(run["run_samples"])
         fs2_limit[c] = float(run["fs2_limit_indentation"])
+        fs2_alt[c] = float(run["fs2_alternation"])
         k_sat[c] = saturated_stiffness(grid, grid_vars["stiffness"][c], settings.saturation_range)
         k_sat_b[c] = saturated_stiffness(grid, grid_vars["backing_stiffness"][c], settings.saturation_range)
         logger.info("case %s: %d native samples, K_sat = %.4g N/m", case_label(*key), d.size, k_sat[c])
@@ -747,6 +753,7 @@ def aggregate(contacts: Iterable[xr.Dataset | str | Path], settings: StudySettin
     data["native_samples"] = var("native_samples", ("case",), n_native)
     data["run_samples"] = var("run_samples", ("case",), n_run)
     data["fs2_limit_indentation"] = var("fs2_limit_indentation", ("case",), fs2_limit)
+    data["fs2_alternation"] = var("fs2_alternation", ("case",), fs2_alt)
     data["equivalent_modulus_scale"] = var("equivalent_modulus_scale", ("case",), scale)
     data["equivalent_misfit"] = var("equivalent_misfit", ("case",), misfit)
     data["saturated_stiffness"] = var("saturated_stiffness", ("case",), k_sat)

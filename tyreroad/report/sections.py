@@ -531,6 +531,8 @@ def stability_section(ctx: ReportContext) -> list[str]:
     dynamic = study["mode"].values.astype(str) == "dynamic"
     labels = study["case"].values.astype(str)[dynamic]
     limit = study["fs2_limit_indentation"].values[dynamic]
+    alternation = (study["fs2_alternation"].values[dynamic] if "fs2_alternation" in study
+                   else np.full(limit.size, np.nan))
     past = np.isfinite(limit)
     lines = ["## Stability of the time march at fs/2", ""]
     if not past.any():
@@ -540,14 +542,14 @@ def stability_section(ctx: ReportContext) -> list[str]:
         f"{int(past.sum())} of {int(dynamic.sum())} dynamic cases reach contact springs stiffer than the fs/2 "
         "stability limit k_crit = -1/lambda_min(G_d(-1)) of the march's kernel (`tyreroad.stability`): from there "
         "on the march admits a growing period-2 alternation of the forces. Each contact file records k_crit, the "
-        "stiffest spring of every step and the alternation over the run's last fifth; these runs end before it "
-        "grows visibly, but their K(d) past that indentation is not guaranteed by the march. First indentation "
-        "past the limit [mm]:",
+        "stiffest spring of every step and the alternation (fourth difference / 16) over the run's last fifth, "
+        f"here at most {np.nanmax(alternation[past]):.1e} of the force: these runs end before it has grown, but "
+        "the march does not guarantee their K(d) past that indentation; a long hold past it would chatter.",
         "",
-        "| case | d past k_crit [mm] |",
-        "|---|---|",
+        "| case | first d past k_crit [mm] | fs/2 alternation, last fifth [1] |",
+        "|---|---|---|",
     ]
-    lines += [f"| {label} | {d * _MM:.3f} |" for label, d in zip(labels[past], limit[past])]
+    lines += [f"| {label} | {d * _MM:.3f} | {a:.1e} |" for label, d, a in zip(labels[past], limit[past], alternation[past])]
     return lines + [""]
 
 
