@@ -24,6 +24,7 @@ from tyreroad.stiffness import (
     frequency_grid,
     harmonic_stiffness,
     stiffness_spectrum,
+    transient_states,
 )
 
 C = 1e-3  # m, element size
@@ -324,8 +325,9 @@ def test_harmonic_run_matches_k_star(frequency, periods):
 # --------------------------------------------------------------------------------------------
 # stage, figure and report section
 # --------------------------------------------------------------------------------------------
-def _stage_files(tmp_path, patch):
-    """Surface, springs and greens files of the 8 x 8 test patch (only what the stage reads)."""
+def _stage_files(tmp_path, patch, mat=None):
+    """Surface, springs and greens files of the 8 x 8 test patch (only what the stage reads; with a
+    material, its full greens file: the transient state needs the dynamic kernel)."""
     import xarray as xr
 
     nx, ny = patch["z1"].shape
@@ -338,6 +340,9 @@ def _stage_files(tmp_path, patch):
                     coords={"zeta": ("zeta", zeta, a)})
     greens = xr.Dataset({"g_static": (("dx", "dy"), patch["g_static"], a)},
                         attrs={"element_size": C, "sample_rate": FS})
+    if mat is not None:
+        greens = greens_dataset(mat, (nx, ny), C, FS, 256, 4096)
+    tmp_path.mkdir(exist_ok=True)
     paths = {}
     for name, ds in (("surface", surface), ("springs", sp), ("greens", greens)):
         paths[name] = tmp_path / f"{name}.nc"
@@ -349,10 +354,10 @@ def test_stage_writes_the_spectrum_with_provenance_and_figure_and_report_section
     from tyreroad import io, pipeline
     from tyreroad.report import _stiffness_spectrum_section
 
-    paths = _stage_files(tmp_path, patch)
     spectrum_cfg = {"preloads": [5e-5, 1e-4], "n_frequencies": 12}
     outs = []
     for name, spec in (("tread", TREAD), ("tread-eta1.5", {**TREAD, "loss_scale": 1.5})):
+        paths = _stage_files(tmp_path / name, patch, material(spec, name))
         out = tmp_path / f"{name}.nc"
         pipeline.run_stiffness_spectrum(paths["surface"], paths["springs"], paths["greens"], "synth", name, spec,
                                         {"quasistatic_step": 1e-5}, spectrum_cfg, out)
@@ -373,8 +378,54 @@ def test_stage_writes_the_spectrum_with_provenance_and_figure_and_report_section
     ratio = k1k / float(ds["tangent_stiffness_qs"].sel(preload=1e-4))
     assert f"{k1k * 1e-6:.3f} / {float(ds['loss_factor'].sel(preload=1e-4, frequency=1000.0)):.3f}" in text
     assert f"| {ratio:.3f} |" in text and "relaxed preload state" in text and "| tread-eta1.5 |" in text
+    # the transient state: loaded to d0 at the default 0.1 m/s, stiffer than relaxed
+    assert ds.attrs["transient_speed"] == 0.1 and np.all(ds["transient_force"] > ds["preload_force"])
+    k1k_t = float(ds["storage_stiffness_transient"].sel(preload=1e-4, frequency=1000.0))
+    assert f"| 1000 Hz | {k1k * 1e-6:.3f} / " in text and f"| {k1k_t / k1k:.3f} |" in text
     # a bad section is an error naming the key, before any work
     with pytest.raises(ValueError, match="stiffness_spectrum.figure_preload"):
         pipeline.run_stiffness_spectrum(paths["surface"], paths["springs"], paths["greens"], "synth", "tread", TREAD,
                                         {}, {"preloads": [5e-5], "figure_preload": 1e-4}, tmp_path / "bad.nc")
     assert not (tmp_path / "bad.nc").exists()
+
+
+# --------------------------------------------------------------------------------------------
+# the transient preload state (loaded to d0 at a stated speed)
+# --------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("spec, speed, relaxes", [(MAXWELL, 0.005, True), (TREAD, 0.1, False)])
+def test_transient_state_against_the_relaxed_one(spec, speed, relaxes):
+    """A Maxwell tread (relaxation times <= 0.1 ms) loaded to 0.1 mm in 20 ms is as good as relaxed: its
+    transient state and K*(1 kHz) equal the relaxed ones within 1 %. The fractional tread loaded in 1 ms
+    carries far more force than relaxed. Either way K*_transient is the dense formula over the transient
+    state's own springs."""
+    rng = np.random.default_rng(31)
+    shape = (6, 6)
+    mat = material(spec, "m")
+    z1 = rough_z1(*shape, rng)
+    springs = punch_springs(36, rng)
+    greens = greens_dataset(mat, shape, C, FS, 256, 4096)
+    relaxed = LayerKernel.from_greens(greens, "quasistatic", mat)
+    layer = LayerKernel.from_greens(greens, "dynamic", mat)
+    spec_settings = SpectrumSettings(preloads=(1e-4,), n_frequencies=8, report_frequencies=(1000.0,),
+                                     transient_speed=speed)
+    ds = stiffness_spectrum(z1, springs, relaxed, ElementFRF(mat, C), mat, FS, spec_settings,
+                            SolverSettings(quasistatic_step=1e-5, method="dense"), layer=layer)
+    at = ds.sel(frequency=1000.0)
+    k_relaxed = complex(at["storage_stiffness"][0] + 1j * at["loss_stiffness"][0])
+    k_moving = complex(at["storage_stiffness_transient"][0] + 1j * at["loss_stiffness_transient"][0])
+    f_relaxed, f_moving = float(ds["preload_force"][0]), float(ds["transient_force"][0])
+    if relaxes:
+        assert f_moving == pytest.approx(f_relaxed, rel=0.01)
+        assert abs(k_moving / k_relaxed - 1) < 0.01
+    else:
+        assert f_moving > 1.3 * f_relaxed
+    # the transient state's own springs through the dense formula, at 1 kHz
+    state = transient_states(z1, springs, layer, (1e-4,), speed, SolverSettings(quasistatic_step=1e-5))
+    k = state.spring_stiffness[0].ravel()
+    c = np.flatnonzero(k)
+    table = ElementFRF(mat, C).frequency_response([1000.0], shape)[0]
+    g = offset_matrix(table)[np.ix_(c, c)]
+    expected = np.ones(c.size) @ np.linalg.solve(g + np.diag(1 / k[c]), np.ones(c.size))
+    assert k_moving == pytest.approx(expected, rel=1e-10)
+    assert float(state.force[0]) == pytest.approx(f_moving, rel=1e-12) and ds.attrs["transient_speed"] == speed
+    assert np.all(ds["loss_stiffness_transient"].values > 0)

@@ -93,7 +93,7 @@ DEFAULT_PRELOADS = (5.0e-5, 1.0e-4, 1.5e-4, 2.0e-4)
 DEFAULT_REPORT_FREQUENCIES = (100.0, 1000.0, 5000.0)
 
 _KEYS = {"preloads", "f_min", "n_frequencies", "report_frequencies", "figure_preload",
-         "krylov_tolerance", "krylov_max_iterations"}
+         "krylov_tolerance", "krylov_max_iterations", "transient_speed"}
 
 
 # --------------------------------------------------------------------------------------------
@@ -120,6 +120,10 @@ class SpectrumSettings:
         Relative residual at which the matrix-free solve stops (default 1e-12).
     krylov_max_iterations : int
         Iterations allowed per matrix-free solve before it is an error (default 3000).
+    transient_speed : float
+        Indentation speed [m/s] of the **transient** preload state (default 0.1 m/s: 0.1 mm in 1 ms,
+        the loading time of an element under a tyre rolling at ~20 m/s): the dynamic run from contact
+        to d0 at that speed, the working point of a rolling contact, beside the relaxed state.
     """
 
     preloads: tuple = DEFAULT_PRELOADS
@@ -129,6 +133,7 @@ class SpectrumSettings:
     figure_preload: float | None = None
     krylov_tolerance: float = 1e-12
     krylov_max_iterations: int = 3000
+    transient_speed: float = 0.1
 
     def __post_init__(self) -> None:
         where = "stiffness_spectrum"
@@ -156,6 +161,8 @@ class SpectrumSettings:
         object.__setattr__(self, "figure_preload", float(pre[np.argmin(np.abs(pre - fig))]))
         object.__setattr__(self, "krylov_tolerance", tol)
         object.__setattr__(self, "krylov_max_iterations", it)
+        object.__setattr__(self, "transient_speed", checks.real(f"{where}.transient_speed", self.transient_speed,
+                                                               positive=True))
 
     @classmethod
     def from_config(cls, section: Mapping[str, Any] | None) -> "SpectrumSettings":
@@ -293,6 +300,86 @@ def preload_states(z1, springs, relaxed: LayerKernel, preloads, settings: Solver
     )
 
 
+def transient_states(z1, springs, layer: LayerKernel, preloads, speed: float, settings: SolverSettings,
+                     threads: int = 1) -> PreloadStates:
+    """The contact states reached by loading to each preload at ``speed`` (the transient preload states).
+
+    One dynamic run per preload, d(t_n) = d0 t_n / t_N from first contact (t_0 = 0) to d0, with
+    t_N = ceil(d0 fs / v) / fs, i.e. the speed v rounded so that the last step lands on d0; the state
+    is that last step's. A rolling contact loads an element for milliseconds: this is its working
+    point, where the tread has had no time to relax.
+
+    Parameters
+    ----------
+    z1 : array_like
+        Road matching heights z1[ex, ey] [m].
+    springs : tyreroad.springs.SpringTable
+        Spring tables.
+    layer : tyreroad.kernel.LayerKernel
+        The dynamic kernel (kept lags and memory).
+    preloads : sequence of float
+        d0 [m].
+    speed : float
+        v [m/s].
+    settings, threads
+        As :func:`preload_states`.
+
+    Returns
+    -------
+    PreloadStates
+        ``tangent_stiffness`` is NaN (a dynamic state has no quasi-static tangent).
+    """
+    if layer.static:
+        raise ValueError(f"{layer.name}: the transient preload state needs the dynamic kernel, got a static one")
+    v = checks.real("transient_speed", speed, positive=True)
+    z1 = np.asarray(z1, dtype=float)
+    pre = np.asarray(preloads, dtype=float)
+    zeta, force, count = [], [], []
+    for d0 in pre:
+        n = max(2, math.ceil(d0 * layer.sample_rate / v * (1.0 - 1e-12)))
+        time_n = np.arange(n + 1) / layer.sample_rate
+        result = solve_path(z1, springs.stiffness, springs.force, springs.zeta_step, layer, d0 * time_n / time_n[-1],
+                            settings, time=time_n, threads=threads)
+        zeta.append(result.compression[-1])
+        force.append(result.force[-1])
+        count.append(result.contact_count[-1])
+        logger.info("transient state at d0 = %.3g mm (%d steps at %.4g m/s): F = %.4g N, %d elements in contact",
+                    d0 * 1e3, n, d0 * layer.sample_rate / n, force[-1], count[-1])
+    zeta = np.asarray(zeta)
+    _, k = springs.evaluate(zeta.reshape((pre.size,) + springs.stiffness.shape[:-1]))
+    return PreloadStates(preload=pre, compression=zeta, spring_stiffness=k.reshape(zeta.shape),
+                         force=np.asarray(force), tangent_stiffness=np.full(pre.size, np.nan),
+                         contact_count=np.asarray(count))
+
+
+def _contact_set_spectrum(states: PreloadStates, influences, method: str, spectrum: "SpectrumSettings"):
+    """K* of every state and influence operator: values (P, F) complex, Krylov iterations (P, F)."""
+    n_p, n_f = states.preload.size, len(influences)
+    values = np.zeros((n_p, n_f), dtype=complex)
+    iterations = np.zeros((n_p, n_f), dtype=np.int64)
+    k_flat = states.spring_stiffness.reshape(n_p, -1)
+    if method == "dense":
+        for p in range(n_p):
+            active = np.flatnonzero(k_flat[p])
+            if active.size == 0:
+                continue
+            s = np.sqrt(k_flat[p, active])
+            for j in range(n_f):
+                values[p, j] = contact_set_solve(influences[j].block(active), s)
+        return values, iterations
+    starts = [None] * n_p
+    for j in range(n_f):
+        op = influences[j]
+        for p in range(n_p):
+            start = starts[p]
+            if start is not None and j == 1:
+                start = start.astype(complex)
+            values[p, j], iterations[p, j], starts[p] = contact_set_stiffness_krylov(
+                op, states.spring_stiffness[p], op.g_self, spectrum.krylov_tolerance, spectrum.krylov_max_iterations,
+                start)
+    return values, iterations
+
+
 # --------------------------------------------------------------------------------------------
 # the spectrum
 # --------------------------------------------------------------------------------------------
@@ -307,8 +394,9 @@ def stiffness_spectrum(
     settings: SolverSettings,
     threads: int = 1,
     method: str | None = None,
+    layer: LayerKernel | None = None,
 ) -> xr.Dataset:
-    """K*(f; d0) of a rough contact about its relaxed preload states (SPEC 11).
+    """K*(f; d0) of a rough contact about its relaxed preload states (SPEC 11), and about its transient ones.
 
     Parameters
     ----------
@@ -334,6 +422,9 @@ def stiffness_spectrum(
         numba threads and FFT workers.
     method : {"dense", "fft"}, optional
         Override of ``settings.resolved_method`` (tests, benchmarks).
+    layer : tyreroad.kernel.LayerKernel, optional
+        The dynamic kernel: with it, K* is also computed about the transient preload states
+        (:func:`transient_states` at ``spectrum.transient_speed``), the ``*_transient`` variables.
 
     Returns
     -------
@@ -357,29 +448,12 @@ def stiffness_spectrum(
     # f = 0 first: the relaxed limit, E(omega -> 0)
     influences = response.frequency_influences(np.concatenate([[0.0], freq]), shape, threads)
     t_frf = time.perf_counter() - t0 - t_states
-    n_p, n_f = states.preload.size, freq.size + 1
-    values = np.zeros((n_p, n_f), dtype=complex)
-    iterations = np.zeros((n_p, n_f), dtype=np.int64)
-    k_flat = states.spring_stiffness.reshape(n_p, -1)
-    if method == "dense":
-        for p in range(n_p):
-            active = np.flatnonzero(k_flat[p])
-            if active.size == 0:
-                continue
-            s = np.sqrt(k_flat[p, active])
-            for j in range(n_f):
-                values[p, j] = contact_set_solve(influences[j].block(active), s)
-    else:
-        starts = [None] * n_p
-        for j in range(n_f):
-            op = influences[j]
-            for p in range(n_p):
-                k = states.spring_stiffness[p]
-                start = starts[p]
-                if start is not None and j == 1:
-                    start = start.astype(complex)
-                values[p, j], iterations[p, j], starts[p] = contact_set_stiffness_krylov(
-                    op, k, op.g_self, spectrum.krylov_tolerance, spectrum.krylov_max_iterations, start)
+    n_p = states.preload.size
+    values, iterations = _contact_set_spectrum(states, influences, method, spectrum)
+    transient = None
+    if layer is not None:
+        moving = transient_states(z1, springs, layer, spectrum.preloads, spectrum.transient_speed, settings, threads)
+        transient = (moving, _contact_set_spectrum(moving, influences[1:], method, spectrum)[0])
     k_relaxed = values[:, 0].real
     k_star = values[:, 1:]
     elapsed = time.perf_counter() - t0
@@ -403,6 +477,8 @@ def stiffness_spectrum(
                        "tangent of the relaxed state", e_qs, e0)
     ds = _dataset(states, freq, k_star, k_relaxed, iterations[:, 1:], method, n_elem, material, element_size,
                   sample_rate, e0, e_qs)
+    if transient is not None:
+        _add_transient(ds, *transient, n_elem, spectrum.transient_speed)
     ds.attrs["report_frequencies"] = np.asarray(spectrum.report_frequencies, dtype=float)
     ds.attrs["figure_preload"] = float(spectrum.figure_preload)
     return ds
@@ -455,6 +531,19 @@ def _dataset(states, freq, k_star, relaxed, iterations, method, n_elem, material
     })
 
 
+def _add_transient(ds: xr.Dataset, states: PreloadStates, k_star: np.ndarray, n_elem: int, speed: float) -> None:
+    """The transient state's K* and state variables in the spectrum dataset."""
+    pf = ("preload", "frequency")
+    where = f"transient preload state (loaded from first contact to d0 at {speed:g} m/s)"
+    ds["storage_stiffness_transient"] = (pf, k_star.real, {"units": "N/m", "long_name": f"K' of the {where}"})
+    ds["loss_stiffness_transient"] = (pf, k_star.imag, {"units": "N/m", "long_name": f"K'' of the {where}"})
+    ds["loss_factor_transient"] = (pf, k_star.imag / k_star.real, {"units": "1", "long_name": f"K''/K' of the {where}"})
+    ds["transient_force"] = ("preload", states.force, {"units": "N", "long_name": f"total contact force of the {where}"})
+    ds["transient_contact_fraction"] = ("preload", states.contact_count / n_elem,
+                                        {"units": "1", "long_name": f"fraction of elements in contact, {where}"})
+    ds.attrs["transient_speed"] = float(speed)
+
+
 def spectrum_from_datasets(surface: xr.Dataset, springs: xr.Dataset, greens: xr.Dataset, material,
                            spectrum: SpectrumSettings, settings: SolverSettings, threads: int = 1,
                            method: str | None = None) -> xr.Dataset:
@@ -470,7 +559,8 @@ def spectrum_from_datasets(surface: xr.Dataset, springs: xr.Dataset, greens: xr.
     z1 = surface["z1"].transpose("ex", "ey").values
     table = SpringTable.from_dataset(springs)
     return stiffness_spectrum(z1, table, relaxed, ElementFRF(material, relaxed.element_size), material,
-                              relaxed.sample_rate, spectrum, settings, threads, method)
+                              relaxed.sample_rate, spectrum, settings, threads, method,
+                              layer=LayerKernel.from_greens(greens, "dynamic", material))
 
 
 # --------------------------------------------------------------------------------------------

@@ -308,6 +308,7 @@ def _stiffness_spectrum_section(spectra: Sequence[xr.Dataset], reference: str, v
             f"| {float(ref['storage_stiffness'][p, 0]) / k_qs:.3f} | " + " | ".join(_spectrum_row(ref, p, freqs)) + " |"
         )
     fig_preload = float(ref.attrs.get("figure_preload", ref["preload"].values[(ref.sizes["preload"] - 1) // 2]))
+    lines += _transient_lines(ref, fig_preload, freqs)
     others = [m for m in materials if m in by]
     lines += [
         "",
@@ -339,6 +340,36 @@ def _stiffness_spectrum_section(spectra: Sequence[xr.Dataset], reference: str, v
         "",
     ]
     return lines
+
+
+def _transient_lines(ref: xr.Dataset, d0: float, freqs: Sequence[float]) -> list[str]:
+    """The reference's K* about the transient preload state beside the relaxed one, at one preload."""
+    if "storage_stiffness_transient" not in ref:
+        return []
+    p = int(np.argmin(np.abs(ref["preload"].values - d0)))
+    speed = float(ref.attrs.get("transient_speed", float("nan")))
+    f = ref["frequency"].values
+    cells = []
+    for freq in freqs:
+        j = int(np.argmin(np.abs(f - freq)))
+        if not np.isclose(f[j], freq, rtol=1e-9):
+            continue
+        k_r, k_t = float(ref["storage_stiffness"][p, j]), float(ref["storage_stiffness_transient"][p, j])
+        cells.append(f"| {freq:g} Hz | {k_r * _MN:.3f} / {float(ref['loss_factor'][p, j]):.3f} | "
+                     f"{k_t * _MN:.3f} / {float(ref['loss_factor_transient'][p, j]):.3f} | {k_t / k_r:.3f} |")
+    return [
+        "",
+        f"Transient preload state: the contact loaded from first contact to d0 = {ref['preload'].values[p] * _MM:g} mm "
+        f"at {speed:g} m/s (the working point of a rolling contact, where the tread has had no time to relax) "
+        f"carries F = {float(ref['transient_force'][p]):.1f} N with "
+        f"{100 * float(ref['transient_contact_fraction'][p]):.1f} % of the elements in contact, against "
+        f"{float(ref['preload_force'][p]):.1f} N and {100 * float(ref['contact_fraction'][p]):.1f} % relaxed; "
+        "K* about each state (K′ [MN/m] / η):",
+        "",
+        "| f | relaxed | transient | K′ transient / relaxed |",
+        "|---|---|---|---|",
+        *cells,
+    ]
 
 
 def _storage_change(greens: dict[str, xr.Dataset], material: str, reference: str, freq: float) -> float | None:
