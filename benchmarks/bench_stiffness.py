@@ -189,7 +189,7 @@ def part_harmonic(cfg, args) -> None:
         ks = spectrum_from_datasets(surface, springs, greens, mat, spectrum, settings)
         for f, periods in cases:
             preset = LoadingPreset("h", {"kind": "harmonic", "preload": d0, "preload_speed": speed, "relax_time": hold,
-                                         "amplitude": 1e-6, "frequency": f, "periods": periods})
+                                         "amplitude": 5e-8, "frequency": f, "periods": periods})
             t0 = time.perf_counter()
             res = solve_loading(surface, springs, greens, mat, "dynamic", preset, settings, args.threads)
             t_run = time.perf_counter() - t0

@@ -429,3 +429,34 @@ def test_transient_state_against_the_relaxed_one(spec, speed, relaxes):
     assert k_moving == pytest.approx(expected, rel=1e-10)
     assert float(state.force[0]) == pytest.approx(f_moving, rel=1e-12) and ds.attrs["transient_speed"] == speed
     assert np.all(ds["loss_stiffness_transient"].values > 0)
+
+
+def test_harmonic_beyond_the_linear_range_is_refused(tmp_path, patch):
+    """Issue 24: a harmonic whose amplitude exceeds the smallest compression in contact of its preload
+    state is refused before any step, naming the amplitude and both limits; one below both runs."""
+    from tyreroad.contact import check_harmonic_amplitude, linear_range, solve_loading
+
+    springs = patch["springs"]
+    relaxed = LayerKernel.quasistatic(patch["g_static"])
+    settings = SolverSettings(quasistatic_step=1e-5)
+    compression, gap = linear_range(patch["z1"], springs, relaxed, 1e-4, settings)
+    # the state itself: its smallest positive compression and smallest gap, solved independently
+    state = solve_path(patch["z1"], springs.stiffness, springs.force, springs.zeta_step, relaxed,
+                       [5e-5, 1e-4], SolverSettings(quasistatic_step=5e-5)).compression[-1].ravel()
+    assert compression == pytest.approx(state[state > 0].min(), rel=1e-9)
+    assert gap == pytest.approx((-state[state < 0]).min(), rel=1e-9)
+    spec = {"kind": "harmonic", "preload": 1e-4, "relax_time": 0.0, "amplitude": 1.5 * min(compression, gap),
+            "frequency": 1000.0, "periods": 2}
+    with pytest.raises(ValueError, match=r"loadings\.h\.amplitude = .* smallest compression of a spring in contact is "
+                                         r".* and the smallest open gap"):
+        check_harmonic_amplitude(LoadingPreset("h", spec), patch["z1"], springs, relaxed, settings)
+    check_harmonic_amplitude(LoadingPreset("h", {**spec, "amplitude": 0.5 * min(compression, gap)}), patch["z1"],
+                             springs, relaxed, settings)
+    # through the loading stage: refused before the run, from the stage datasets
+    mat = material(TREAD, "tread")
+    paths = _stage_files(tmp_path / "s", patch, mat)
+    from tyreroad import io
+
+    surface, sp, greens = (io.read_dataset(paths[k]) for k in ("surface", "springs", "greens"))
+    with pytest.raises(ValueError, match="beyond the linear range"):
+        solve_loading(surface, sp, greens, mat, "dynamic", LoadingPreset("h", spec), settings)

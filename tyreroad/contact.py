@@ -74,6 +74,8 @@ __all__ = [
     "solve_quasistatic",
     "solve_run",
     "solve_loading",
+    "linear_range",
+    "check_harmonic_amplitude",
     "contact_dataset",
     "loading_dataset",
 ]
@@ -426,6 +428,51 @@ def _stage_run(surface: xr.Dataset, springs: xr.Dataset, greens: xr.Dataset, mat
     return dataclasses.replace(result, backing_force=kernel.backing_force(result.force), stability=stability)
 
 
+def linear_range(z1, springs: SpringTable, relaxed: LayerKernel, preload: float, settings: SolverSettings,
+                 threads: int = 1) -> tuple[float, float]:
+    """The small-amplitude range of the relaxed preload state at d0 (the state K*(f; d0) linearises):
+    (smallest compression of a spring in contact, smallest open gap) [m] (inf where there is none).
+
+    A harmonic indentation about d0 stays linear -- no element closes or opens, so K* describes it --
+    only while its amplitude is below both. The state is solved on the uniform grid of
+    ``settings.quasistatic_step`` up to d0 on the static kernel, as the stiffness spectrum's.
+    """
+    if not relaxed.static:
+        raise ValueError(f"{relaxed.name}: the relaxed preload state needs the static kernel, got a dynamic one")
+    grid = uniform_indentation_grid(float(preload), settings.quasistatic_step)
+    path = np.append(grid[grid < preload], float(preload))
+    state = solve_path(z1, springs.stiffness, springs.force, springs.zeta_step, relaxed, path, settings,
+                       threads=threads)
+    zeta = state.compression[-1].ravel()
+    touching, open_gap = zeta[zeta > 0.0], -zeta[zeta < 0.0]
+    return (float(touching.min()) if touching.size else math.inf,
+            float(open_gap.min()) if open_gap.size else math.inf)
+
+
+def check_harmonic_amplitude(preset: LoadingPreset, z1, springs: SpringTable, relaxed: LayerKernel,
+                             settings: SolverSettings, threads: int = 1) -> None:
+    """Refuse a ``harmonic`` loading preset whose amplitude leaves the linear range of its preload state.
+
+    Raises
+    ------
+    ValueError
+        Naming ``loadings.<name>.amplitude``, the amplitude, and both limits of :func:`linear_range`.
+    """
+    if preset.kind != "harmonic":
+        return
+    amplitude, d0 = float(preset.params["amplitude"]), float(preset.params["preload"])
+    compression, gap = linear_range(z1, springs, relaxed, d0, settings, threads)
+    logger.info("harmonic %s: amplitude %.3g m; at d0 = %.4g m the smallest compression in contact is %.3g m, the "
+                "smallest open gap %.3g m", preset.name, amplitude, d0, compression, gap)
+    if amplitude >= min(compression, gap):
+        raise ValueError(
+            f"loadings.{preset.name}.amplitude = {amplitude:.3g} m: beyond the linear range of its preload state "
+            f"(relaxed, d0 = {d0:.4g} m): the smallest compression of a spring in contact is {compression:.3g} m and "
+            f"the smallest open gap {gap:.3g} m; expected an amplitude below both (larger ones open and close "
+            "contacts, and the run is no longer the small-amplitude K* of stiffness_spectrum)"
+        )
+
+
 def solve_loading(
     surface: xr.Dataset,
     springs: xr.Dataset,
@@ -439,7 +486,9 @@ def solve_loading(
     """One run of a loading preset (cycle, harmonic, table, ...; SPEC 10) from the stage datasets.
 
     Dynamic runs use the time-domain kernel with its long-memory tail and get the backing force;
-    quasi-static runs the static kernel (their backing force is the surface force).
+    quasi-static runs the static kernel (their backing force is the surface force). A ``harmonic``
+    preset is first checked against the linear range of its preload state
+    (:func:`check_harmonic_amplitude`).
 
     Parameters
     ----------
@@ -460,6 +509,11 @@ def solve_loading(
     -------
     ContactResult
     """
+    if preset.kind == "harmonic":
+        relaxed = LayerKernel.from_greens(greens, "quasistatic")
+        check_harmonic_amplitude(preset, surface["z1"].transpose("ex", "ey").values,
+                                 SpringTable.from_dataset(springs), relaxed, settings, threads)
+
     def make_loading(z1, kernel):
         loading = preset.loading(z1, mode, kernel.sample_rate, settings.quasistatic_step)
         logger.info("%s run of loading %s (%s): %d steps", mode, preset.name, preset.kind, loading.n_steps)

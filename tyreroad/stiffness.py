@@ -78,6 +78,7 @@ logger = logging.getLogger(__name__)
 
 __all__ = [
     "SpectrumSettings",
+    "transient_states",
     "frequency_grid",
     "PreloadStates",
     "preload_states",
