@@ -175,6 +175,29 @@ def test_flat_dynamic_pass_loses_energy_with_the_pressure_ahead(tread_greens):
     assert float(ds["steady_loss_force"]) == pytest.approx(float(ds["rolling_loss_force"]), rel=0.1)
 
 
+def test_dynamic_pass_at_the_wheel_load(tread_greens):
+    """Issue 24: a dynamic pass with a wheel load carries that load as its steady mean force (to the load
+    tolerance): the relaxed static d0 is too deep for a dynamic tread, so d0 comes down pass by pass; the
+    file records the static start, the passes and the remaining error; the coefficient is the steady one."""
+    mat = _material(TREAD)
+    z1, ex = _flat_strip(60, 6)
+    springs = _flat_springs(z1.shape, mat)
+    g, gs = _kernels(tread_greens)
+    settings = RollingSettings(load=60.0, load_tolerance=0.005)
+    res, info = solve_rolling(z1, ex, springs, g, gs, 6.0, settings, SolverSettings())
+    ds = rolling_dataset(res, info, "dynamic", 6.0, settings, None, "flat", "tread")
+    assert abs(float(ds["steady_force"]) / 60.0 - 1) <= 0.005
+    assert ds.attrs["load_passes"] >= 2 and abs(ds.attrs["load_error"]) <= 0.005
+    assert float(ds["d0"]) < 0.9 * ds.attrs["static_d0"]  # the dynamic tread is stiffer than relaxed
+    agg = aggregate_rolling([ds])
+    assert float(agg["rolling_loss_coefficient"][0]) == pytest.approx(
+        float(ds["steady_loss_force"]) / float(ds["steady_force"]), rel=1e-12)
+    # the same static start, at a quasi-static pass: already at the load (a flat road centres the contact)
+    qs, qs_info = solve_rolling(z1, ex, springs, gs, gs, 6.0, RollingSettings(load=60.0, quasistatic_step=2e-4),
+                                SolverSettings())
+    assert qs_info["load_passes"] == 1 and qs_info["d0"] == qs_info["static_d0"] == ds.attrs["static_d0"]
+
+
 # --------------------------------------------------------------------------------------------
 # Must-show 3: slow limit
 # --------------------------------------------------------------------------------------------
@@ -212,7 +235,8 @@ def test_rough_quasistatic_force_does_not_depend_on_speed():
     k, f, step = punch_tables(z1.size, rng)
     springs = SpringTable.checked(k, f, step, z1.size)
     gs = _static_kernel(shape, mat)
-    settings = RollingSettings(load=100.0)
+    # a 30 mm strip has no steady part for a contact ~27 mm long: the pass runs at a given d0, not at a load
+    settings = RollingSettings(load=None, d0=3.0e-4)
     runs = [solve_rolling(z1, ex, springs, gs, gs, v, settings, SolverSettings())
             for v in (5.0, 30.0)]
     (slow, i5), (fast, i30) = runs
@@ -269,7 +293,7 @@ def test_aggregate_and_report_section():
     z1, ex = _flat_strip(24, 4)
     springs = _flat_springs(z1.shape, mat)
     gs = _static_kernel(z1.shape, mat)
-    settings = RollingSettings(load=80.0, quasistatic_step=1e-4, steady_entry=0.0)
+    settings = RollingSettings(load=None, d0=5e-5, quasistatic_step=2.5e-5, steady_entry=0.0)
     runs = []
     for v in (5.0, 20.0):
         res, info = solve_rolling(z1, ex, springs, gs, gs, v, settings, SolverSettings())
@@ -282,9 +306,10 @@ def test_aggregate_and_report_section():
     assert agg.sizes["case"] == 2 and agg.sizes["band"] == 18
     np.testing.assert_array_equal(agg["force_curve"].values[0], agg["force_curve"].values[1])
     # a quasi-static pass on a flat road does no net work (SPEC 12): W is only the trapezoid rule's residue
-    # (here 1.5e-5 of the work the belt puts in while the contact grows, 6.5 mJ); the same at both speeds
+    # (a small part of the work the belt puts in while the contact grows, 0.2 mJ at d0 = 0.05 mm); the same
+    # at both speeds
     w, w_in = agg["work"].values, agg["work_in"].values
-    assert np.all(w_in > 1e-3)
+    assert np.all(w_in > 1e-4)
     assert np.all(np.abs(w) <= 1e-4 * w_in)
     assert w[0] == w[1]
     np.testing.assert_array_equal(agg["rolling_loss_force"].values, w / agg.attrs["strip_length"])

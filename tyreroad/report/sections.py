@@ -640,9 +640,11 @@ def rolling_section(ctx: ReportContext) -> list[str]:
     chatter_max = t["rolling_chatter_max"]
     lines = ["## Rolling contact (SPEC 12)", "",
              f"A slick tyre of radius {study.attrs['radius']:g} m rolls over the road strip {study.attrs['surface']} "
-             f"({study.attrs['strip_length'] * 1e3:.0f} mm long) at a fixed axle height (d0 from the wheel load). Rolling-loss force W/dx with dx = strip length; "
-             "coefficient = W/dx over the steady mean force. Band levels of the force fluctuation over the steady "
-             "part (dB re 1 N).", "",
+             f"({study.attrs['strip_length'] * 1e3:.0f} mm long) at a fixed axle height: with a wheel load, d0 is "
+             "set pass by pass until the mean force over the steady part is the load (rolling.load_tolerance). "
+             "Rolling-loss force W/dx over the whole pass (dx = strip length, the strip's ends included); "
+             "coefficient = steady P/v (the belt's mean power over the steady part / v) over the steady mean force. "
+             "Band levels of the force fluctuation over the steady part (dB re 1 N).", "",
              "| material | mode | v [m/s] | d0 [mm] | mean F [N] | W/dx [N] | coefficient | steady P/v [N] | "
              "centre - x_c [mm] | rms dF [N] | strongest band [Hz] | level [dB] |",
              "|---|---|---|---|---|---|---|---|---|---|---|---|"]

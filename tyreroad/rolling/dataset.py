@@ -74,6 +74,8 @@ def rolling_dataset(result: RollingResult, info: Mapping[str, float], mode: str,
              "surface": surface_name, "x_start": info["x_start"], "x_end": info["x_end"],
              "half_length": info["half_length"], "element_size": info["element_size"],
              "load": float("nan") if settings.load is None else float(settings.load),
+             "static_d0": float(info.get("static_d0", float("nan"))), "load_passes": int(info.get("load_passes", 0)),
+             "load_error": float(info.get("load_error", float("nan"))),
              "steady_margin": settings.steady_margin, "steady_entry": settings.steady_entry}
     return xr.Dataset(data, coords=coords, attrs=attrs)
 
@@ -108,7 +110,7 @@ def aggregate_rolling(runs: Sequence[xr.Dataset], band_limits=(100.0, 5000.0)) -
         rows.append({
             "material": r.attrs["material"], "mode": r.attrs["mode"], "speed": float(r.attrs["speed"]),
             "steady_force": mean_f, "rolling_loss_force": loss, "steady_loss_force": float(r["steady_loss_force"]),
-            "rolling_loss_coefficient": loss / mean_f if mean_f > 0 else float("nan"),
+            "rolling_loss_coefficient": float(r["steady_loss_force"]) / mean_f if mean_f > 0 else float("nan"),
             "work": float(r["work"]), "work_in": float(r["work_in"]), "d0": float(r["d0"]),
             "fluctuation_rms": float(np.std(fluct)) if fluct.size else float("nan"),
             "band_level": levels, "strongest_band": strongest, "chatter": chatter,
@@ -125,7 +127,8 @@ def aggregate_rolling(runs: Sequence[xr.Dataset], band_limits=(100.0, 5000.0)) -
         "steady_force": ("N", "mean total force over the steady part"),
         "rolling_loss_force": ("N", "rolling-loss force W / dx (dx = strip length)"),
         "steady_loss_force": ("N", "mean belt power / v over the steady part"),
-        "rolling_loss_coefficient": ("1", "rolling-loss force over the steady mean force"),
+        "rolling_loss_coefficient": ("1", "steady rolling-loss force (mean belt power / v over the steady part) over "
+                                          "the steady mean force"),
         "work": ("J", "work of the belt over the pass"),
         "work_in": ("J", "positive part of the belt's work"),
         "d0": ("m", "belt indentation below the highest road peak"),

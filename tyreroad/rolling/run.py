@@ -108,11 +108,19 @@ def solve_rolling(
     d0 : float, optional
         The indentation, if already known (overrides the settings' load / d0).
 
+    With ``settings.load`` (and no d0) the pass is at the wheel load: d0 starts from the quasi-static
+    indentation that carries the load with the contact centred on the strip, and is corrected pass
+    by pass until the mean force over the steady part is the load to ``settings.load_tolerance``
+    (a dynamic tread carries far more than its relaxed load at the same d0).
+
     Returns
     -------
     result : RollingResult
+        The last pass.
     info : dict
-        ``d0``, ``x_start``, ``x_end``, ``half_length``, ``strip_length``, ``element_size``.
+        ``d0``, ``x_start``, ``x_end``, ``half_length``, ``strip_length``, ``element_size``;
+        ``static_d0`` (the quasi-static start), ``load_passes`` and ``load_error`` (steady mean force
+        / load - 1 of the last pass); NaN / 0 for a given d0.
 
     Raises
     ------
@@ -123,13 +131,54 @@ def solve_rolling(
     """
     z1 = np.asarray(z1, dtype=float)
     ex = np.asarray(element_x, dtype=float)
-    mode = "quasistatic" if kernel.static else "dynamic"
     c = float(ex[1] - ex[0]) if ex.size > 1 else 2.0 * float(ex[0])
     if d0 is None:
         d0 = settings.d0
-    if d0 is None:
-        centre = 0.5 * (ex[0] + ex[-1])
-        d0 = static_indentation(z1, ex, springs, relaxed, settings.radius, settings.load, centre, solver, threads)
+    if d0 is not None:
+        result, info = _one_pass(z1, ex, c, springs, kernel, float(d0), speed, settings, solver, threads)
+        return result, {**info, "static_d0": float("nan"), "load_passes": 0, "load_error": float("nan")}
+    centre = 0.5 * (ex[0] + ex[-1])
+    static_d0 = static_indentation(z1, ex, springs, relaxed, settings.radius, settings.load, centre, solver, threads)
+    return _pass_at_load(z1, ex, c, springs, kernel, static_d0, speed, settings, solver, threads)
+
+
+#: Passes allowed to bring the steady mean force to the wheel load.
+MAX_LOAD_PASSES = 8
+
+
+def _pass_at_load(z1, ex, c, springs, kernel, static_d0, speed, settings, solver, threads):
+    """Passes at d0 from the static indentation on, until the steady mean force is the load (secant on d0).
+
+    The first correction scales d0 by (load / F)^(2/3) (a Hertzian contact's F ~ d^1.5); later ones
+    follow the secant of the last two passes.
+    """
+    load, d = float(settings.load), static_d0
+    tried: list[tuple[float, float]] = []
+    while True:
+        result, info = _one_pass(z1, ex, c, springs, kernel, d, speed, settings, solver, threads)
+        steady = steady_mask(result.x_c, info, settings.steady_margin, settings.steady_entry)
+        if not steady.any():
+            raise ValueError(f"rolling: the pass at d0 = {d:.4g} m has no steady part, so its mean force cannot be "
+                             "set to rolling.load; lengthen the strip or lower rolling.steady_entry")
+        force = float(result.force[steady].mean())
+        tried.append((d, force))
+        error = force / load - 1.0
+        logger.info("rolling at the load: pass %d at d0 = %.6e m carries a steady mean force of %.5g N (%+.3f %% of "
+                    "%g N)", len(tried), d, force, 100 * error, load)
+        if abs(error) <= settings.load_tolerance:
+            return result, {**info, "static_d0": float(static_d0), "load_passes": len(tried), "load_error": error}
+        if len(tried) >= MAX_LOAD_PASSES:
+            raise ValueError(f"rolling.load = {load:g} N: after {len(tried)} passes the steady mean force is {force:.5g} N "
+                             f"({100 * error:+.2f} %, d0 = {d:.6g} m), outside rolling.load_tolerance = "
+                             f"{settings.load_tolerance:g}")
+        (d1, f1), (d2, f2) = (tried[-2] if len(tried) > 1 else (0.0, 0.0)), tried[-1]
+        slope = (f2 - f1) / (d2 - d1) if len(tried) > 1 and d2 != d1 else 0.0
+        d = d2 + (load - f2) / slope if slope > 0 else d2 * (load / f2) ** (2.0 / 3.0)
+
+
+def _one_pass(z1, ex, c, springs, kernel, d0, speed, settings, solver, threads):
+    """One pass at the indentation d0 [m]: (result, info)."""
+    mode = "quasistatic" if kernel.static else "dynamic"
     x_start, x_end = pass_limits(settings, d0, ex, c)
     time, x_c = pass_positions(mode, speed, x_start, x_end, kernel.sample_rate, settings.quasistatic_step)
     loading = RollingPass(z1, ex, settings.radius, d0, x_c, time, speed)

@@ -19,8 +19,11 @@ class RollingSettings:
     radius : float
         Tyre radius R [m] (default 0.3).
     load : float or None
-        Wheel load on the strip [N] (default 500 for the 20 mm wide strip); sets d0 by a
-        quasi-static solve. Exactly one of ``load`` and ``d0`` is given.
+        Wheel load on the strip [N] (default 500 for the 20 mm wide strip): d0 is set pass by pass
+        so that the mean force over the steady part is the load (from the quasi-static indentation
+        on). Exactly one of ``load`` and ``d0`` is given.
+    load_tolerance : float
+        Relative tolerance of the steady mean force on ``load`` (default 0.005).
     d0 : float or None
         Indentation of the belt below the highest road peak at x_c [m].
     x_start, x_end : float or None
@@ -46,6 +49,7 @@ class RollingSettings:
 
     radius: float = 0.3
     load: float | None = 500.0
+    load_tolerance: float = 0.005
     d0: float | None = None
     x_start: float | None = None
     x_end: float | None = None
@@ -62,6 +66,8 @@ class RollingSettings:
             raise ValueError("rolling: give exactly one of rolling.load [N] and rolling.d0 [m] (the other null)")
         if self.load is not None:
             checks.real("rolling.load", self.load, positive=True)
+        if not 0.0 < checks.real("rolling.load_tolerance", self.load_tolerance) < 0.5:
+            raise ValueError(f"rolling.load_tolerance: expected a relative tolerance in (0, 0.5), got {self.load_tolerance!r}")
         if self.d0 is not None:
             checks.real("rolling.d0", self.d0, positive=True)
         checks.real("rolling.quasistatic_step", self.quasistatic_step, positive=True)
@@ -108,6 +114,7 @@ def _float_tuple(values: Any) -> tuple[float, ...]:
 _CONVERTERS = {
     "radius": float,
     "load": _optional_float,
+    "load_tolerance": float,
     "d0": _optional_float,
     "quasistatic_step": float,
     "steady_margin": int,
