@@ -261,3 +261,81 @@ def test_material_is_frozen_and_hashable():
         m.density = 1.0  # type: ignore[misc]
     assert hash(m) == hash(material_from_config("tread", section()))
     assert isinstance(m, Material)
+
+
+# ---------------------------------------------------------------------------------------------- Laplace domain
+# E(s) at complex s, Re s >= 0 (convolution-quadrature kernels, issue 23)
+
+S_GRID = np.outer(np.geomspace(1e-2, 1e7, 40), np.exp(1j * np.deg2rad(np.linspace(-90.0, 90.0, 13)))).ravel()
+
+
+@pytest.mark.parametrize("model", [FractionalKelvinVoigt(22e6, 44e6, 0.24, 1000.0), GM_TRUE])
+def test_laplace_modulus_continues_the_frequency_axis(model):
+    # on the imaginary axis the continuation is the complex modulus itself
+    assert np.max(np.abs(model.laplace_modulus(1j * W) / model.modulus(W) - 1)) < 1e-13
+    # real s > 0: real, positive, increasing (a stiffening material), E(0) = the relaxed modulus
+    sr = np.geomspace(1e-3, 1e7, 200)
+    e = model.laplace_modulus(sr)
+    assert np.all(e.imag == 0) and np.all(e.real > 0) and np.all(np.diff(e.real) > 0)
+    relaxed = model.E0 if isinstance(model, FractionalKelvinVoigt) else model.E_inf
+    assert model.laplace_modulus(0.0) == relaxed
+    # reflection symmetry and passivity: arg E(s) between 0 and arg s (so Re E > 0 in Re s > 0)
+    e = model.laplace_modulus(S_GRID)
+    np.testing.assert_allclose(model.laplace_modulus(np.conj(S_GRID)), np.conj(e), rtol=1e-15, atol=0)
+    arg_e, arg_s = np.angle(e), np.angle(S_GRID)
+    assert np.all(arg_e * arg_s >= 0) and np.all(np.abs(arg_e) <= np.abs(arg_s) + 1e-15)
+    with pytest.raises(ValueError, match="Re s >= 0"):
+        model.laplace_modulus(-1.0 + 1j)
+    with pytest.raises(ValueError, match="finite"):
+        model.laplace_modulus(np.nan)
+
+
+def test_fractional_laplace_modulus_is_the_principal_branch():
+    m = FractionalKelvinVoigt(22e6, 44e6, 0.24, 1000.0)
+    w1 = 2 * np.pi * 1000.0
+    # s = w1 exp(i theta): (s / w1)^alpha = exp(i alpha theta) exactly, for theta in [-pi/2, pi/2]
+    theta = np.linspace(-np.pi / 2, np.pi / 2, 9)
+    e = m.laplace_modulus(w1 * np.exp(1j * theta))
+    np.testing.assert_allclose(e, 22e6 + 44e6 * np.exp(0.24j * theta), rtol=1e-14, atol=0)
+
+
+def test_material_laplace_modulus_and_refusals():
+    sec = section(
+        **{
+            "tread-rho2": {"base": "tread", "density_scale": 2.0},
+            "tread-eta0.5": {"base": "tread", "loss_scale": 0.5},
+            "tread-eta0": {"base": "tread", "loss_scale": 0.0},
+        }
+    )
+    base = material_from_config("tread", sec)
+    s = np.array([0.0, 10.0, 1e3 * np.exp(0.7j), 2j * np.pi * 1000.0])
+    np.testing.assert_array_equal(base.laplace_modulus(s), base.model.laplace_modulus(s))
+    # density does not enter E
+    np.testing.assert_array_equal(material_from_config("tread-rho2", sec).laplace_modulus(s), base.laplace_modulus(s))
+    for name in ("tread-eta0.5", "tread-eta0"):
+        with pytest.raises(ValueError, match=rf"material '{name}'.*loss_scale.*Kramers-Kronig"):
+            material_from_config(name, sec).laplace_modulus(s)
+
+    class AxisOnly:
+        def modulus(self, omega):
+            return np.full(np.shape(omega), 1e7 + 0j)
+
+    with pytest.raises(ValueError, match="material 'probe'.*AxisOnly.*frequency axis only"):
+        Material("probe", 0.49, 1100.0, 0.01, AxisOnly()).laplace_modulus(s)
+
+
+def test_table_preset_continues_through_its_causal_fit():
+    # the table is represented by its causal generalised Maxwell fit everywhere in the pipeline; that fit's
+    # continuation is E(s) (the raw points are never used off the fit, on the frequency axis either)
+    f = np.geomspace(1.0, 1e4, 25)
+    e = GM_TRUE.modulus(2 * np.pi * f)
+    cfg = {k: v for k, v in TREAD.items() if k not in ("E0", "E1", "alpha", "f1")}
+    cfg.update(model="table", frequency=f.tolist(), storage_modulus=e.real.tolist(),
+               loss_factor=(e.imag / e.real).tolist())
+    m = material_from_config("dma", {"dma": cfg})
+    w = 2 * np.pi * f
+    assert np.max(np.abs(m.laplace_modulus(1j * w) / m.modulus(w) - 1)) < 1e-13
+    s = 2 * np.pi * 300.0 * np.exp(0.5j)
+    assert m.laplace_modulus(s) == m.model.laplace_modulus(s)
+    # the fit's continuation stays close to the true material's off the axis too
+    assert abs(m.laplace_modulus(s) / GM_TRUE.laplace_modulus(s) - 1) < 1e-3

@@ -32,6 +32,10 @@ response kept (:func:`precursor_correction`). Adding only the precursor's sum to
 kernel 3 % (excitation element) to 5 % (neighbours) off the FRF at fs / 10, mostly in phase; the
 fit brings that to 0.4-0.7 %.
 
+Laplace domain (convolution-quadrature kernels): :func:`element_laplace` is g(x, y, s) at complex s,
+Re s >= 0, the analytic continuation of the FRF (omega^2 = -s^2, E(omega) -> E(s); equal to
+:func:`element_frf` on the frequency axis), with the k rule's wave scales taken at |s| (see there).
+
 The quasi-static kernel is g(omega = 0) computed with the material's quasi-static modulus and the
 static layer compliance H0 = 2 (1 - nu^2) / (E k) L(kh).
 
@@ -93,6 +97,7 @@ __all__ = [
     "unique_offsets",
     "offset_table_index",
     "element_frf",
+    "element_laplace",
     "ElementFRF",
     "static_element_kernel",
     "time_kernel",
@@ -639,6 +644,144 @@ def _element_frf_group(offsets, c, omega, modulus, nu, density, thickness, k_wav
             + 1j * product[nb:]
         )
     logger.info("element_frf: done in %.2f s", time.perf_counter() - t0)
+    return out
+
+
+def _laplace_wave_scales(s, modulus_s, poisson, density):
+    """Wave scales of the k rule at complex s: Re k_s at omega = |s| [rad/m] and eta_eff [-].
+
+    The k integrand peaks near the Rayleigh and guided-mode wavenumbers. At complex s the pole of a wave
+    with complex wavenumber k_s(s) = -i s sqrt(rho / mu(s)) lies at |k_s| ~ |s| sqrt(rho / |mu|) from the
+    origin, so the scales of :func:`element_frf` are taken at omega = |s| with E(s): k_wave and the "wavy"
+    test use Re(|s| sqrt(rho / mu(s))). Its relative distance from the real k axis, which the geometric panels
+    must resolve, is about eta(s) / 2 + Re s / |s|: the material's part (eta(s) = |Im E(s)| / Re E(s), which
+    shrinks away from the axis) plus the part Re s adds (a mode of group speed c_g and phase speed c gets
+    Im k ~ Re s / c_g, relative Re s c / (|s| c_g) >= Re s / |s| where c_g <= c, i.e. for normally
+    dispersive modes and for the bulk and Rayleigh waves; where a mode's c_g exceeds c the estimate is that
+    much too wide, which the panel ratio's clip to 1.01 ... 1.05 bounds, and the refinement test off the
+    axis (tests/test_greens.py) measures). So
+    the damping that sets the panels is eta_eff(s) = |Im E(s)| / Re E(s) + 2 Re s / |s| (the floor
+    2 Re s / |s| keeps the rule coarse where no peak can be sharp, e.g. on the real s axis where the
+    integrand has no peak at all), its minimum over the s with waves in the layer (k_s h >= pi/4 as in
+    element_frf), 0.1 if there are none. On the frequency axis (Re s = 0, Im s >= 0) all three equal
+    element_frf's choices at omega = Im s, so the rule, hence g, is the same there.
+    """
+    mag = np.abs(s)
+    k_s = _shear_wavenumber(mag, modulus_s, poisson, density)
+    safe = np.where(mag > 0, mag, 1.0)
+    eta_eff = np.abs(modulus_s.imag) / modulus_s.real + np.where(mag > 0, 2.0 * s.real / safe, 0.0)
+    return k_s, eta_eff
+
+
+def element_laplace(
+    offsets,
+    element_size: float,
+    s,
+    modulus_s,
+    poisson: float,
+    density: float,
+    thickness: float,
+    refine: float = 1.0,
+    block: int = 128,
+) -> np.ndarray:
+    """Element Green's function g(x, y, s) [m/N] of the layer at complex Laplace frequencies, Re s >= 0.
+
+    The analytic continuation of :func:`element_frf`, g(x, y, i omega) = element_frf(..., omega, E(omega)),
+    for convolution-quadrature kernels, which need the transfer function at s = delta(zeta) / dt off the
+    frequency axis (Lubich 1988). The same split and the same k integrals as :func:`element_frf`, with
+    omega^2 = -s^2 and E(omega) -> E(s) wherever the frequency enters:
+
+    * the Love part (1 - nu^2) / E(s) and the half-space term 2 (1 - nu^2) / (E(s) k) of the remainder;
+    * the layer compliance, :func:`tyreroad.layer.laplace_compliance` (e_s = -rho (s h)^2 / mu(s));
+    * the large-k tail beta eps_s / (E k^3): eps_over_e = -2 (1 + nu) rho s^2 / E(s)^2.
+
+    Every term is analytic in s for a fixed k rule. The rule (panels, k_max) is chosen once per call from
+    all the s of the call, like element_frf's from its band: wave scales at |s| and a damping floor
+    (``_laplace_wave_scales``: eta_eff(s) = |Im E(s)| / Re E(s) + 2 Re s / |s|). Evaluate the s that must be
+    mutually consistent (finite differences, one CQ contour) in one call; the rule's own error is that of
+    element_frf (< 1e-7 of the self-compliance under refinement). On the frequency axis the rule is
+    element_frf's, so g(i omega) equals element_frf to rounding.
+
+    Parameters
+    ----------
+    offsets : array_like
+        Offsets (x, y) of the field element centres from the loaded element's centre, (n, 2) [m].
+    element_size : float
+        Element size c [m].
+    s : array_like of complex
+        Laplace frequencies [rad/s], finite, Re s >= 0.
+    modulus_s : array_like of complex
+        E(s) at ``s`` [Pa] (``Material.laplace_modulus``): Re E > 0 and passive, Re(s / sqrt E) >= 0.
+    poisson : float
+        Poisson's ratio [-].
+    density : float
+        Density [kg/m^3].
+    thickness : float
+        Layer thickness h [m].
+    refine : float
+        k-quadrature refinement factor (>= 1), for convergence checks.
+    block : int
+        Laplace frequencies per block (memory).
+
+    Returns
+    -------
+    numpy.ndarray
+        Complex g, shape (len(s), n) [m/N]; g(conj s) = conj g(s); real for real s; g(0) is the static
+        element kernel with E(0).
+
+    References
+    ----------
+    Love (1929), doi:10.1098/rsta.1929.0009
+    Lubich (1988), Numer. Math. 52, 129-145. doi:10.1007/BF01398686
+    """
+    offsets = np.asarray(offsets, dtype=float).reshape(-1, 2)
+    s = np.atleast_1d(layer._laplace_frequency(s))
+    modulus_s = np.broadcast_to(layer._laplace_modulus_array(s, modulus_s), s.shape)
+    _check_layer(poisson, density, thickness)
+    c = float(element_size)
+    nu = float(poisson)
+    k_s, eta_eff = _laplace_wave_scales(s, modulus_s, nu, density)
+    wavy = k_s * thickness >= np.pi / 4
+    eta_min = float(eta_eff[wavy].min()) if wavy.any() else 0.1
+    k_wave = float(np.max(k_s, initial=0.0)) / 0.87  # as _rayleigh_wavenumber, at omega = |s|
+    out = np.empty((s.size, len(offsets)), dtype=complex)
+    for group in _offset_groups(offsets, c):
+        out[:, group] = _element_laplace_group(
+            offsets[group], c, s, modulus_s, nu, density, thickness, k_wave, eta_min, refine, block
+        )
+    return out
+
+
+def _element_laplace_group(offsets, c, s, modulus_s, nu, density, thickness, k_wave, eta_min, refine, block):
+    """element_laplace for one group of offsets (the twin of _element_frf_group, with omega^2 = -s^2)."""
+    r = np.hypot(offsets[:, 0], offsets[:, 1])
+    quad = wavenumber_quadrature(c, thickness, k_wave, eta_min / 2, r.max(), refine, r_min=r.min())
+    weights = bessel_weights(quad, offsets, c)
+    love_unit = love.rectangle_potential(offsets[:, 0], offsets[:, 1], c, c) / (np.pi * c * c)
+    k = quad.nodes
+    tail = _tail_coefficient(nu) * _tail_weights(quad.k_max, offsets, c)
+    out = np.empty((s.size, len(offsets)), dtype=complex)
+    for start in range(0, s.size, block):
+        sl = slice(start, start + block)
+        e = modulus_s[sl, None]
+        halfspace = 2 * (1 - nu**2) / (e * k[None, :])
+        rem = layer.laplace_compliance(k[None, :], s[sl, None], e, nu, density, thickness)
+        rem -= halfspace
+        if not np.all(np.isfinite(rem)):
+            bad = np.argwhere(~np.isfinite(rem))[0]
+            raise FloatingPointError(
+                f"layer compliance not finite at s = {s[sl][bad[0]]:.6g} rad/s, k = {k[bad[1]]:.6g} rad/m"
+            )
+        nb = rem.shape[0]
+        product = np.concatenate([rem.real, rem.imag]) @ weights
+        # omega^2 = -s^2 in element_frf's 2 (1 + nu) rho omega^2 / E^2
+        eps_over_e = -2 * (1 + nu) * density * s[sl, None] ** 2 / e**2
+        out[sl] = (
+            (1 - nu**2) / e * love_unit[None, :]
+            + eps_over_e * tail[None, :]
+            + product[:nb]
+            + 1j * product[nb:]
+        )
     return out
 
 

@@ -83,6 +83,7 @@ from . import checks
 __all__ = [
     "static_layer_factor",
     "compliance",
+    "laplace_compliance",
     "static_compliance",
     "halfspace_compliance",
     "backing_force_transfer",
@@ -329,6 +330,109 @@ def compliance(k, omega, modulus, poisson, density, thickness):
     r = (1.0 - 2.0 * nu) / (2.0 * (1.0 - nu))  # mu / M, real
     x = np.ascontiguousarray(k * h, dtype=float).ravel()
     e_s = np.ascontiguousarray(rho * (omega * h) ** 2 / mu, dtype=complex).ravel()
+    mu_flat = np.ascontiguousarray(mu, dtype=complex).ravel()
+    out = np.empty(x.size, dtype=complex)
+    _compliance_kernel(x, e_s, mu_flat, r, h, out)
+    return out.reshape(k.shape)[()]
+
+
+def _laplace_frequency(s):
+    """Complex Laplace frequencies s [rad/s], finite, Re s >= 0."""
+    z = np.asarray(s, dtype=complex)
+    if np.any(~np.isfinite(z)) or np.any(z.real < 0):
+        raise ValueError("Laplace frequency s must be finite with Re s >= 0 [rad/s] (the closed right half plane)")
+    return z
+
+
+def _laplace_modulus_array(s, modulus_s):
+    """E(s) broadcast with s, checked to be finite, Re E > 0 and passive: Re(s / sqrt(E(s))) >= 0.
+
+    The last condition is that the complex shear and P-wave "wavenumbers" gamma = s sqrt(rho / mu(s)) (same
+    argument for both, r = mu / M being real) have Re gamma >= 0: a disturbance decays into the layer
+    (laplace_compliance's branch argument rests on it). It holds for every modulus that is the continuation of
+    a passive one (arg E(s) between 0 and arg s).
+    """
+    e = np.asarray(modulus_s, dtype=complex)
+    if np.any(~np.isfinite(e)) or np.any(e.real <= 0):
+        raise ValueError("modulus_s must be finite with Re E(s) > 0 [Pa]")
+    s_b, e_b = np.broadcast_arrays(s, e)
+    root = np.sqrt(e_b)
+    decay = (s_b * np.conj(root)).real
+    if np.any(decay < -1e-12 * np.abs(s_b) * np.abs(root)):
+        i = np.flatnonzero(decay.ravel() < -1e-12 * (np.abs(s_b) * np.abs(root)).ravel())[0]
+        raise ValueError(
+            f"modulus_s = {e_b.ravel()[i]:.6g} Pa at s = {s_b.ravel()[i]:.6g} rad/s is not passive: "
+            "Re(s / sqrt(E(s))) < 0, a wave would grow into the layer; E(s) must be the analytic continuation "
+            "of a passive modulus (Material.laplace_modulus)"
+        )
+    return e
+
+
+def laplace_compliance(k, s, modulus_s, poisson, density, thickness):
+    """Laplace-domain surface compliance H(k, s) [m/Pa] of a layer bonded to a rigid base, Re s >= 0.
+
+    The analytic continuation of :func:`compliance` to complex frequency, H(k, i w) = compliance(k, w): the
+    frequency enters the layer only through eps_s = rho w^2 / mu, so w^2 = -s^2 and E(w) -> E(s), i.e.
+    e_s = -rho (s h)^2 / mu(s), evaluated by the same numba kernel (``_compliance_kernel``, complex in e_s)
+    and the same stable form. A separate function rather than a complex ``omega`` in :func:`compliance`:
+    that function's contract (real w >= 0, Im E >= 0, Im H <= 0) and its code path stay exactly as they were,
+    and this one validates its own domain (Re s >= 0, E(s) passive in the sense below).
+
+    Branch (``_branch_sqrt``, principal root, Re >= 0). Write gamma^2 = rho s^2 / mu(s) = -e_s / h^2; the
+    roots are a = sqrt(x^2 + r (h gamma)^2), b = sqrt(x^2 + (h gamma)^2), x = kh >= 0. For a passive material
+    arg E(s) lies between 0 and theta = arg s (fractional Kelvin-Voigt: between 0 and alpha theta; each Maxwell
+    arm s tau / (1 + s tau): between 0 and theta), so arg gamma = theta - arg(mu) / 2 lies between theta / 2
+    and theta: |arg gamma| < pi/2 for Re s > 0 (Re gamma > 0: the wave decays into the layer), and
+    arg gamma^2 has the sign of Im s with |arg gamma^2| < pi. Adding x^2 >= 0 keeps the argument of the root
+    in the same (upper or lower) half plane, or on the positive real axis for real s: it never reaches the
+    cut of the principal root (the negative real axis) in the open right half plane. So a and b are analytic
+    there, with Re a, Re b > 0 (decaying, e^{-a z / h}; the kernel's t = exp(-(a + b)) keeps |t| < 1). On
+    the imaginary axis s = i w (w > 0) the argument is x^2 - e_s with Im >= 0, the limit from Re s > 0, so
+    the roots are continuous onto the frequency axis and equal those of :func:`compliance`; for a lossless
+    material (argument on the cut) the kernel's normalisation Im >= 0 is that same limit. The layer
+    compliance is even in a and in b, so its value does not depend on the branch at all; the branch decides
+    the stable form's boundedness (|t| <= 1) and the half-space limit, where Re a > 0 is decay.
+
+    Parameters
+    ----------
+    k : array_like
+        Wavenumber magnitude |k| [rad/m], >= 0.
+    s : array_like of complex
+        Laplace frequency [rad/s], finite, Re s >= 0.
+    modulus_s : array_like of complex
+        E(s) [Pa], the analytic continuation of the complex modulus (``Material.laplace_modulus``),
+        broadcastable with ``s``; Re E > 0 and passive (Re(s / sqrt(E)) >= 0).
+    poisson : float
+        Poisson's ratio nu [-], 0 < nu < 0.5.
+    density : float
+        Density rho [kg/m^3].
+    thickness : float
+        Layer thickness h [m].
+
+    Returns
+    -------
+    numpy.ndarray of complex
+        H(k, s) [m/Pa]; H(k, conj s) = conj H(k, s); real and positive for real s >= 0
+        (H(k, 0) = static compliance with E(0); H(0, 0) = h / M(0)).
+
+    References
+    ----------
+    Hayes, Keer, Herrmann & Mockros (1972), J. Biomech. 5, 541-551. doi:10.1016/0021-9290(72)90010-3
+    Lubich (1988), Numer. Math. 52, 129-145 (convolution quadrature: G(s) off the frequency axis).
+    doi:10.1007/BF01398686
+    """
+    nu = checks.poisson_ratio(poisson, allow_zero=False)
+    rho = checks.real("density", density, positive=True)
+    h = checks.real("thickness", thickness, positive=True)
+    k = checks.nonnegative_array("k", k)
+    s = _laplace_frequency(s)
+    e = _laplace_modulus_array(s, modulus_s)
+    k, s, e = np.broadcast_arrays(k, s, e)
+    mu, _ = _moduli(e, nu)
+    r = (1.0 - 2.0 * nu) / (2.0 * (1.0 - nu))  # mu / M, real
+    x = np.ascontiguousarray(k * h, dtype=float).ravel()
+    # w^2 = -s^2: e_s = rho (w h)^2 / mu -> -rho (s h)^2 / mu (equal to compliance's e_s at s = i w)
+    e_s = np.ascontiguousarray(rho * -((s * h) ** 2) / mu, dtype=complex).ravel()
     mu_flat = np.ascontiguousarray(mu, dtype=complex).ravel()
     out = np.empty(x.size, dtype=complex)
     _compliance_kernel(x, e_s, mu_flat, r, h, out)

@@ -35,6 +35,16 @@ base preset (resolved recursively) and multiplies its scales; both scales may al
 Quasi-static modulus (key ``quasi_static_modulus``): ``zero_frequency`` (the default) is Re E(w -> 0) of the
 (scaled) model -- E0 for the fractional model, E_inf for the Maxwell model; or a number in Pa.
 
+Laplace domain (convolution-quadrature kernels, issue 23): ``laplace_modulus(s)`` gives E(s) [Pa] for complex
+s with Re s >= 0, the analytic continuation of E(w) with E(i w) = modulus(w): fractional Kelvin-Voigt
+E0 + E1 (s / w1)^alpha (principal branch, |arg s| <= pi/2), generalised Maxwell E_inf + sum_k E_k s tau_k /
+(1 + s tau_k). A ``table`` preset continues through its causal generalised Maxwell fit (the fit, not the raw
+points, is the material everywhere in the pipeline, on the frequency axis too). A loss-scaled variant
+(loss_scale != 1) has no continuation and :meth:`Material.laplace_modulus` refuses it: |E| held constant while
+eta is scaled is not the boundary value of a function analytic in Re s > 0 (it breaks Kramers-Kronig).
+For both models arg E(s) lies between 0 and arg s (each term maps the right half plane into that sector), so
+Re E(s) > 0 and E is real and positive for real s > 0.
+
 Derived moduli (SPEC 1): mu = E / (2 (1 + nu)), M = E (1 - nu) / ((1 + nu)(1 - 2 nu)), E* = E / (1 - nu^2).
 
 References
@@ -118,6 +128,13 @@ def _omega_array(omega):
     return w
 
 
+def _laplace_array(s):
+    z = np.asarray(s, dtype=complex)
+    if np.any(~np.isfinite(z)) or np.any(z.real < 0):
+        raise ValueError("Laplace frequency s must be finite with Re s >= 0 [rad/s] (the closed right half plane)")
+    return z
+
+
 @dataclass(frozen=True)
 class FractionalKelvinVoigt:
     """E(w) = E0 + E1 (i w / (2 pi f1))^alpha.
@@ -144,6 +161,30 @@ class FractionalKelvinVoigt:
         w = _omega_array(omega)
         power = (w / (2.0 * np.pi * self.f1)) ** self.alpha
         return self.E0 + self.E1 * power * np.exp(0.5j * np.pi * self.alpha)
+
+    def laplace_modulus(self, s):
+        """Young's modulus E(s) = E0 + E1 (s / w1)^alpha [Pa] at complex Laplace frequencies ``s`` [rad/s].
+
+        The analytic continuation of :meth:`modulus`: E(i w) = modulus(w). Principal branch,
+        (s / w1)^alpha = exp(alpha log(s / w1)) with |arg s| <= pi/2 (the cut of log lies on the negative
+        real axis, outside the domain); E(0) = E0.
+
+        Parameters
+        ----------
+        s : array_like of complex
+            Laplace frequencies [rad/s], finite, Re s >= 0.
+
+        Returns
+        -------
+        numpy.ndarray of complex
+            E(s) [Pa]; real and > E0 for real s > 0, E(conj s) = conj E(s).
+        """
+        z = _laplace_array(s)
+        zs = z / (2.0 * np.pi * self.f1)
+        nonzero = zs != 0
+        with np.errstate(divide="ignore", invalid="ignore"):
+            power = np.where(nonzero, np.exp(self.alpha * np.log(np.where(nonzero, zs, 1.0))), 0.0)
+        return (self.E0 + self.E1 * power)[()]
 
 
 @dataclass(frozen=True)
@@ -172,6 +213,28 @@ class GeneralizedMaxwell:
             iwt = 1j * w * tau
             e = e + ek * iwt / (1.0 + iwt)
         return e
+
+    def laplace_modulus(self, s):
+        """Young's modulus E(s) = E_inf + sum_k E_k s tau_k / (1 + s tau_k) [Pa] at complex ``s`` [rad/s].
+
+        The analytic continuation of :meth:`modulus` (i w tau -> s tau): E(i w) = modulus(w), E(0) = E_inf.
+
+        Parameters
+        ----------
+        s : array_like of complex
+            Laplace frequencies [rad/s], finite, Re s >= 0.
+
+        Returns
+        -------
+        numpy.ndarray of complex
+            E(s) [Pa]; real and >= E_inf for real s > 0, E(conj s) = conj E(s).
+        """
+        z = _laplace_array(s)
+        e = np.full(z.shape, complex(self.E_inf))
+        for ek, tau in zip(self.moduli, self.relaxation_times):
+            st = z * tau
+            e = e + ek * st / (1.0 + st)
+        return e[()]
 
 
 @dataclass(frozen=True)
@@ -222,6 +285,48 @@ class Material:
         eta = e.imag / e.real
         s_eta = self.loss_scale * eta
         return np.abs(e) * (1.0 + 1j * s_eta) / np.sqrt(1.0 + s_eta * s_eta)
+
+    def laplace_modulus(self, s):
+        """Young's modulus E(s) [Pa] at complex Laplace frequencies ``s`` [rad/s], Re s >= 0.
+
+        The analytic continuation of :meth:`modulus`, E(i w) = modulus(w), for convolution-quadrature
+        kernels, which evaluate the layer's transfer function off the frequency axis. A ``table`` preset
+        continues through its causal generalised Maxwell fit (its ``model``, which is also what
+        :meth:`modulus` returns on the axis). ``density_scale`` does not enter E.
+
+        Parameters
+        ----------
+        s : array_like of complex
+            Laplace frequencies [rad/s], finite, Re s >= 0.
+
+        Returns
+        -------
+        numpy.ndarray of complex
+            E(s) [Pa].
+
+        Raises
+        ------
+        ValueError
+            For a loss-scaled variant (loss_scale != 1): E_s(w) = |E| (1 + i s eta) / sqrt(1 + s^2 eta^2)
+            keeps |E| and scales eta, which no function analytic in Re s > 0 does (Kramers-Kronig ties
+            the loss to the frequency dependence of the storage modulus), so E_s has no continuation to
+            complex s. Also for a model without an analytic continuation (no ``laplace_modulus``), and for
+            s outside the closed right half plane.
+        """
+        if self.loss_scale != 1.0:
+            raise ValueError(
+                f"material {self.name!r}: no Laplace-domain modulus E(s): loss_scale = {self.loss_scale:g} scales "
+                "the loss factor at constant |E|, which is not the boundary value of a function analytic in "
+                "Re s > 0 (it breaks Kramers-Kronig), so E(w) has no analytic continuation to complex s; "
+                "only a causal modulus model (loss_scale 1) has one"
+            )
+        continuation = getattr(self.model, "laplace_modulus", None)
+        if continuation is None:
+            raise ValueError(
+                f"material {self.name!r}: its modulus model {type(self.model).__name__} gives E(w) on the "
+                "frequency axis only (no laplace_modulus), so E(s) at complex s is not defined"
+            )
+        return continuation(s)
 
     def loss_factor(self, omega):
         """Loss factor eta(w) = Im E / Re E [-]."""
