@@ -176,3 +176,16 @@ def test_rolling_jobs_are_cluster_jobs_sized_for_the_strip():
     retry = job_resources("rolling_run", config, {**w, "speed": "5"}, attempt=2)
     assert retry["runtime"] == pytest.approx(2 * slow["runtime"], abs=1)
     assert retry["mem_mb"] == pytest.approx(2 * slow["mem_mb"], abs=100)
+
+
+def test_sensitivity_points_and_the_transient_spectrum_are_costed_from_measurements():
+    """A sensitivity point (its own small study) asks for at least its measured peak (0.43 GB) and three
+    times its measured 23 s; K*(f) pays for its transient states' dynamic runs (d0 fs / v steps each)."""
+    config = _config()
+    point = job_resources("sensitivity_point", config, {"point": "reference"})
+    assert point["mem_mb"] >= 400 + 1.25 * 430 and point["runtime"] * 60 >= 3 * 23
+    slow = copy.deepcopy(config)
+    slow.setdefault("stiffness_spectrum", {})["transient_speed"] = 0.001  # 100x the steps of the transient runs
+    w = {"surface": "iso10844", "material": "tread"}
+    assert job_resources("stiffness_spectrum", slow, w)["runtime"] > job_resources("stiffness_spectrum", config, w)[
+        "runtime"]

@@ -31,12 +31,13 @@ __all__ = ["CLUSTER_RULES", "job_resources", "run_steps", "rolling_pass_steps", 
 
 #: Rules that run as cluster jobs (the others are ``localrules``).
 CLUSTER_RULES = ("prepare_surface", "element_springs", "greens", "contact", "loading_run", "stiffness_spectrum",
-                 "rolling_greens", "rolling_run")
+                 "rolling_greens", "rolling_run", "sensitivity_point")
 
 _BASE_MB = 280.0          # MB, a stage's process: interpreter, numpy/scipy/numba/xarray, small arrays
 _SNAKEMAKE_MB = 400.0     # MB, the job's two Snakemake processes (batch step, job step)
 _STARTUP_MIN = 5.0        # min, interpreter start, imports, possibly a cold numba compile
 _D0_SOLVE_STEPS = 60      # static solves of the d0 search of a rolling pass given its load (doubling + Brent)
+_LOAD_PASSES = 4          # passes of the search for the d0 that carries the load (tyreroad.rolling.run)
 _DEFAULT_FIELD = 0.1      # m, schema default of surfaces.*.field_size
 
 
@@ -212,6 +213,13 @@ def job_resources(rule: str, config: Mapping[str, Any], wildcards: Mapping[str, 
         patch = _field_mb(spec, patch_only=True)
         # 150 x 200 on the test cluster: 1.4 GB and 34 s (240 MB of tables)
         mem, seconds = _BASE_MB + 4 * tables + 4 * patch, 0.15 * (tables + patch)
+    elif rule == "sensitivity_point":
+        # a small study of its own on the study surface (springs, Green's functions, the contact runs of
+        # one material): measured 15-23 s and 0.40-0.43 GB peak per point on the 20 x 20 patch, 1 thread,
+        # two points at a time on 2 cores (results/benchmarks/sensitivity/*.tsv); scaled by the patch
+        nx, ny = _elements(config, config["study"]["surface"])
+        m = nx * ny
+        mem, seconds = _BASE_MB + 0.4 * m, 0.06 * m
     elif rule in ("greens", "rolling_greens"):
         kernel = _kernel_mb(config, rolling=rule == "rolling_greens")
         n_fft_scale = int(config["greens"]["n_fft"]) / 4096
@@ -224,9 +232,15 @@ def job_resources(rule: str, config: Mapping[str, Any], wildcards: Mapping[str, 
         solver = config["solver"]
         dynamic = wildcards.get("mode") == "dynamic"
         output = 0.0
-        if rule == "stiffness_spectrum":  # a few quasi-static states and one solve per frequency
-            steps = 4 * len(config.get("stiffness_spectrum", {}).get("preloads", [0] * 4)) + 80
-            dynamic = False
+        if rule == "stiffness_spectrum":
+            # a few quasi-static states, one solve per frequency for each of the relaxed and the
+            # transient states, and the transient states' dynamic runs (d0 fs / v steps each)
+            section = config.get("stiffness_spectrum", {})
+            preloads = [float(d) for d in section.get("preloads", [5e-5, 1e-4, 1.5e-4, 2e-4])]
+            speed = float(section.get("transient_speed", 0.1))
+            fs = float(config["greens"]["sample_rate"])
+            steps = 4 * len(preloads) + 160 + sum(math.ceil(d * fs / speed) + 1 for d in preloads)
+            dynamic = True
         elif rule == "rolling_run":
             # a pass stores per-step sums and a few element maps only: its memory is the kernel's and
             # the FFT work arrays' (150 x 20 strip, 20 m/s, 2 threads: 0.4 GB peak, benchmarks/
@@ -235,7 +249,8 @@ def job_resources(rule: str, config: Mapping[str, Any], wildcards: Mapping[str, 
             # step with 2 threads (10 s at 20 m/s, 44 s at 5 m/s, README "Rolling contact").
             steps = rolling_pass_steps(config, wildcards["surface"], wildcards["mode"], float(wildcards["speed"]))
             if config["rolling"].get("d0") is None:
-                steps += _D0_SOLVE_STEPS
+                # with a wheel load: the static d0 search, then passes until the steady force is the load
+                steps = _LOAD_PASSES * steps + _D0_SOLVE_STEPS
         elif rule == "loading_run":
             preset = LoadingPreset(wildcards["loading"], config["loadings"][wildcards["loading"]])
             _, d, _ = preset.path(wildcards["mode"], config["greens"]["sample_rate"], solver["quasistatic_step"])

@@ -29,6 +29,9 @@ rule sensitivity_point:
         study=STUDY,
         code=SOURCE["sensitivity"],
     threads: 1
+    resources:  # cluster requests (tyreroad.cluster), from the study patch
+        mem_mb=lambda w, attempt: cluster_resources("sensitivity_point", config, w, attempt)["mem_mb"],
+        runtime=lambda w, attempt: cluster_resources("sensitivity_point", config, w, attempt)["runtime"],
     script:
         "../scripts/sensitivity_point.py"
 
