@@ -339,3 +339,61 @@ def test_table_preset_continues_through_its_causal_fit():
     assert m.laplace_modulus(s) == m.model.laplace_modulus(s)
     # the fit's continuation stays close to the true material's off the axis too
     assert abs(m.laplace_modulus(s) / GM_TRUE.laplace_modulus(s) - 1) < 1e-3
+
+
+# --------------------------------------------------------------------------------------------
+# causal loss variants (issue 24): the phase scaled, |E| kept at an anchor frequency
+# --------------------------------------------------------------------------------------------
+def _variants():
+    from tyreroad.config import load_config
+
+    mats = dict(load_config(Path(__file__).resolve().parents[1] / "config" / "config.yaml")["materials"])
+    for s in (0.5, 1.5):
+        mats[f"causal{s}"] = {"base": "tread", "loss_scale": s, "loss_anchor": 1000.0}
+        mats[f"relaxed{s}"] = {"base": "tread", "loss_scale": s, "loss_anchor": 0.0}
+        mats[f"seed{s}"] = {"base": "tread", "loss_scale": s}
+    return mats
+
+
+@pytest.mark.parametrize("scale", [0.5, 1.5])
+def test_causal_loss_variant_scales_the_phase_and_keeps_the_anchor(scale):
+    mats = _variants()
+    ref = material_from_config("tread", mats)
+    w = 2 * np.pi * np.logspace(0, 4.4, 30)
+    for name, anchor in ((f"causal{scale}", 1000.0), (f"relaxed{scale}", 0.0)):
+        m = material_from_config(name, mats)
+        e, e_ref = m.modulus(w), ref.modulus(w)
+        np.testing.assert_allclose(np.angle(e), scale * np.angle(e_ref), rtol=1e-12)  # eta_s = tan(s arctan eta)
+        assert abs(m.modulus(2 * np.pi * anchor)) == pytest.approx(abs(ref.modulus(2 * np.pi * anchor)), rel=1e-13)
+        # analytic: the Laplace-domain modulus on the axis is the same function
+        np.testing.assert_allclose(m.laplace_modulus(1j * w), e, rtol=1e-12)
+        assert m.config["loss_anchor"] == anchor
+        assert material_from_config(name, {name: m.config}) == m  # the resolved preset rebuilds it
+    assert material_from_config(f"relaxed{scale}", mats).quasi_static_modulus == pytest.approx(
+        ref.quasi_static_modulus, rel=1e-12)
+
+
+def test_causal_variants_are_creeping_solids_and_the_seeds_are_not():
+    """The retardation-spectrum fit (a non-negative creep spectrum holds every causal, passive material to
+    ~1e-4) holds the phase-scaled variants as well as the reference; the seed's constant-|E| variants
+    miss it by 11-13 % (they are not causal)."""
+    from tyreroad.memory import fit_retardation_spectrum
+
+    mats = _variants()
+    for name in ("tread", "causal0.5", "causal1.5"):
+        assert fit_retardation_spectrum(material_from_config(name, mats), 25600.0).fit_error < 2e-4, name
+    for name in ("seed0.5", "seed1.5"):
+        assert fit_retardation_spectrum(material_from_config(name, mats), 25600.0).fit_error > 0.05, name
+    with pytest.raises(ValueError, match="loss_anchor"):
+        material_from_config("seed1.5", mats).laplace_modulus(np.array([1j]))
+
+
+def test_phase_scaling_beyond_passivity_is_refused():
+    """arg E of the fractional tread tends to alpha pi / 2 = 0.377 rad: s alpha >= 1 is not passive."""
+    mats = _variants()
+    mats["too-lossy"] = {"base": "tread", "loss_scale": 4.5, "loss_anchor": 1000.0}
+    with pytest.raises(ValueError, match=r"materials\.too-lossy\.loss_scale = 4\.5: .* not passive"):
+        material_from_config("too-lossy", mats)
+    mats["bad-anchor"] = {"base": "tread", "loss_scale": 1.5, "loss_anchor": -1.0}
+    with pytest.raises(ValueError, match=r"materials\.bad-anchor\.loss_anchor"):
+        material_from_config("bad-anchor", mats)

@@ -29,6 +29,13 @@ Variants
 --------
 ``loss_scale`` s (the paper's method, constant |E|):
 E_s(w) = |E(w)| (1 + i s eta(w)) / sqrt(1 + s^2 eta(w)^2), so |E_s| = |E| and eta_s = s eta exactly.
+That variant is not a material: holding |E| while scaling eta breaks Kramers-Kronig, and what a
+time-domain run sees of it depends on how its negative-time response is cut off (issue 24).
+``loss_anchor`` f_a [Hz] makes the loss variant causal by scaling the phase instead (issue 24):
+E_s(w) = |E(2 pi f_a)|^(1 - s) E(w)^s (principal power), so arg E_s = s arg E (eta_s = tan(s arctan eta))
+and |E_s(2 pi f_a)| = |E(2 pi f_a)|: the anchor is the frequency whose |E| is kept (0: the relaxed
+modulus, E_s(0) = E(0)). E^s is analytic wherever E is, so E_s is causal; it is passive while
+s arg E < pi/2 at every frequency (checked when the preset is built).
 ``density_scale`` r: rho -> r rho. A preset ``{base: <name>, loss_scale: s, density_scale: r}`` copies the
 base preset (resolved recursively) and multiplies its scales; both scales may also be set on a root preset.
 
@@ -88,7 +95,7 @@ _MODEL_KEYS = {
 }
 _OPTIONAL_MODEL_KEYS = {"table": ("fit_tolerance",)}
 _COMMON_KEYS = ("model", "poisson_ratio", "density", "thickness", "quasi_static_modulus")
-_SCALE_KEYS = ("loss_scale", "density_scale")
+_SCALE_KEYS = ("loss_scale", "density_scale", "loss_anchor")
 _VARIANT_KEYS = ("base",) + _SCALE_KEYS
 _TABLE_TERMS_PER_DECADE = 10
 _TABLE_DEFAULT_FIT_TOLERANCE = 0.02
@@ -254,7 +261,10 @@ class Material:
     model : FractionalKelvinVoigt or GeneralizedMaxwell
         Unscaled modulus model.
     loss_scale : float
-        Loss factor scale s [-] applied at constant |E| (1 = unchanged).
+        Loss factor scale s [-] (1 = unchanged): at constant |E| (the seed's definition) or, with a
+        ``loss_anchor``, by scaling the phase (causal).
+    loss_anchor : float or None
+        f_a [Hz] whose |E| a causal loss variant keeps; None: the seed's constant-|E| scaling.
     quasi_static : str or float
         ``"zero_frequency"`` or a modulus [Pa].
     config : dict
@@ -270,6 +280,7 @@ class Material:
     model: Any
     loss_scale: float = 1.0
     quasi_static: Any = "zero_frequency"
+    loss_anchor: float | None = None
     config: dict = field(default_factory=dict, compare=False, hash=False, repr=False)
     lineage: tuple = field(default=(), compare=False)
 
@@ -282,9 +293,15 @@ class Material:
         e = self.model.modulus(omega)
         if self.loss_scale == 1.0:
             return e
+        if self.loss_anchor is not None:
+            return self._anchor_modulus() ** (1.0 - self.loss_scale) * e**self.loss_scale
         eta = e.imag / e.real
         s_eta = self.loss_scale * eta
         return np.abs(e) * (1.0 + 1j * s_eta) / np.sqrt(1.0 + s_eta * s_eta)
+
+    def _anchor_modulus(self) -> float:
+        """|E(2 pi f_a)| of the unscaled model [Pa] (the modulus a causal loss variant keeps)."""
+        return float(np.abs(self.model.modulus(2.0 * np.pi * float(self.loss_anchor))))
 
     def laplace_modulus(self, s):
         """Young's modulus E(s) [Pa] at complex Laplace frequencies ``s`` [rad/s], Re s >= 0.
@@ -313,12 +330,18 @@ class Material:
             complex s. Also for a model without an analytic continuation (no ``laplace_modulus``), and for
             s outside the closed right half plane.
         """
+        if self.loss_scale != 1.0 and self.loss_anchor is not None:
+            continuation = getattr(self.model, "laplace_modulus", None)
+            if continuation is None:
+                raise ValueError(f"material {self.name!r}: its modulus model {type(self.model).__name__} has no "
+                                 "laplace_modulus")
+            return self._anchor_modulus() ** (1.0 - self.loss_scale) * continuation(s) ** self.loss_scale
         if self.loss_scale != 1.0:
             raise ValueError(
                 f"material {self.name!r}: no Laplace-domain modulus E(s): loss_scale = {self.loss_scale:g} scales "
                 "the loss factor at constant |E|, which is not the boundary value of a function analytic in "
                 "Re s > 0 (it breaks Kramers-Kronig), so E(w) has no analytic continuation to complex s; "
-                "only a causal modulus model (loss_scale 1) has one"
+                "set materials.<name>.loss_anchor (a frequency whose |E| is kept) for the causal variant"
             )
         continuation = getattr(self.model, "laplace_modulus", None)
         if continuation is None:
@@ -528,6 +551,10 @@ def _resolve(name, section, chain):
     chain = chain + (name,)
     loss = _number(name, "loss_scale", cfg.get("loss_scale", 1.0), low=0.0, low_open=False, expected=">= 0")
     dens = _number(name, "density_scale", cfg.get("density_scale", 1.0), low=0.0, expected="> 0")
+    anchor = cfg.get("loss_anchor")
+    if anchor is not None:
+        anchor = _number(name, "loss_anchor", anchor, low=0.0, low_open=False,
+                         expected=">= 0 [Hz] (the frequency whose |E| a causal loss variant keeps) or null")
     if "base" in cfg:
         extra = sorted(set(cfg) - set(_VARIANT_KEYS))
         if extra:
@@ -537,9 +564,21 @@ def _resolve(name, section, chain):
         base = cfg["base"]
         if not isinstance(base, str):
             raise ValueError(f"{_key(name, 'base')} = {base!r}: expected a material preset name")
-        root, l_base, d_base, lineage = _resolve(base, section, chain)
-        return root, loss * l_base, dens * d_base, (name,) + lineage
-    return cfg, loss, dens, (name,)
+        root, l_base, d_base, a_base, lineage = _resolve(base, section, chain)
+        return root, loss * l_base, dens * d_base, (a_base if anchor is None else anchor), (name,) + lineage
+    return cfg, loss, dens, anchor, (name,)
+
+
+def _check_phase_scaling(name, model, loss_scale: float) -> None:
+    """A causal loss variant E^s is passive while s arg E < pi/2 at every frequency (1e-6 ... 1e9 Hz)."""
+    w = 2.0 * np.pi * np.logspace(-6, 9, 1501)
+    phase = float(np.max(np.angle(model.modulus(w))))
+    if loss_scale * phase >= 0.5 * np.pi:
+        raise ValueError(
+            f"materials.{name}.loss_scale = {loss_scale:g}: the causal (phase-scaled) variant is not passive: "
+            f"s arg E reaches {loss_scale * phase:.3f} rad >= pi/2 (arg E up to {phase:.3f} rad); expected "
+            f"loss_scale < {0.5 * np.pi / phase:.3g}"
+        )
 
 
 def material_from_config(name, materials_section) -> Material:
@@ -572,7 +611,7 @@ def material_from_config(name, materials_section) -> Material:
         )
     if not isinstance(materials_section, Mapping):
         raise ValueError(f"materials: expected a mapping of presets, got {type(materials_section).__name__}")
-    root, loss_scale, density_scale, lineage = _resolve(name, materials_section, ())
+    root, loss_scale, density_scale, loss_anchor, lineage = _resolve(name, materials_section, ())
     root_name = lineage[-1]
     model = root.get("model")
     if model is None:
@@ -602,6 +641,8 @@ def material_from_config(name, materials_section) -> Material:
     resolved.pop("density_scale", None)
     resolved["density"] = rho * density_scale
     resolved["loss_scale"] = loss_scale
+    if loss_anchor is not None:
+        resolved["loss_anchor"] = loss_anchor
     resolved["quasi_static_modulus"] = qs
     material = Material(
         name=name,
@@ -611,8 +652,11 @@ def material_from_config(name, materials_section) -> Material:
         model=built,
         loss_scale=loss_scale,
         quasi_static=qs,
+        loss_anchor=loss_anchor,
         config=resolved,
         lineage=lineage,
     )
+    if loss_anchor is not None and loss_scale > 1.0:
+        _check_phase_scaling(name, built, loss_scale)
     logger.debug("material %s resolved via %s: %s", name, " -> ".join(lineage), resolved)
     return material
