@@ -575,7 +575,7 @@ def stability_section(ctx: ReportContext) -> list[str]:
         "on the march admits a growing period-2 alternation of the forces. Each contact file records k_crit, the "
         "stiffest spring of every step and the alternation (fourth difference / 16) over the run's last fifth, "
         f"here at most {np.nanmax(alternation[past]):.1e} of the force: these runs end before it has grown, but "
-        "the march does not guarantee their K(d) past that indentation; a long hold past it would chatter.",
+        "the march does not guarantee their K(d) past that indentation, and a long hold past it can chatter.",
         "",
         "| case | first d past k_crit [mm] | fs/2 alternation, last fifth [1] |",
         "|---|---|---|",
