@@ -594,7 +594,7 @@ def element_frf(
     k_wave = _rayleigh_wavenumber(omega, modulus, nu, density)
     out = np.empty((omega.size, len(offsets)), dtype=complex)
     for group in _offset_groups(offsets, c):
-        out[:, group] = _element_frf_group(
+        out[:, group] = _element_group(
             offsets[group], c, omega, modulus, nu, density, thickness, k_wave, eta_min, refine, block
         )
     return out
@@ -607,8 +607,10 @@ def _offset_groups(offsets: np.ndarray, element_size: float) -> list[np.ndarray]
     return [np.flatnonzero(label == g) for g in np.unique(label)]
 
 
-def _element_frf_group(offsets, c, omega, modulus, nu, density, thickness, k_wave, eta_min, refine, block):
-    """element_frf for one group of offsets: one k rule, its weights, all frequencies."""
+def _element_group(offsets, c, omega, modulus, nu, density, thickness, k_wave, eta_min, refine, block,
+                   laplace: bool = False):
+    """element_frf (or, with ``laplace``, element_laplace: ``omega`` holds s and omega^2 = -s^2) for one
+    group of offsets: one k rule, its weights, all frequencies."""
     r = np.hypot(offsets[:, 0], offsets[:, 1])
     quad = wavenumber_quadrature(c, thickness, k_wave, eta_min / 2, r.max(), refine, r_min=r.min())
     t0 = time.perf_counter()
@@ -626,17 +628,23 @@ def _element_frf_group(offsets, c, omega, modulus, nu, density, thickness, k_wav
         sl = slice(start, start + block)
         e = modulus[sl, None]
         halfspace = 2 * (1 - nu**2) / (e * k[None, :])
-        rem = layer.compliance(k[None, :], omega[sl, None], e, nu, density, thickness)
+        if laplace:
+            rem = layer.laplace_compliance(k[None, :], omega[sl, None], e, nu, density, thickness)
+            omega2 = -omega[sl, None] ** 2
+        else:
+            rem = layer.compliance(k[None, :], omega[sl, None], e, nu, density, thickness)
+            omega2 = omega[sl, None] ** 2
         rem -= halfspace
         if not np.all(np.isfinite(rem)):
             bad = np.argwhere(~np.isfinite(rem))[0]
             raise FloatingPointError(
-                f"layer compliance not finite at omega = {omega[sl][bad[0]]:.6g} rad/s, k = {k[bad[1]]:.6g} rad/m"
+                f"layer compliance not finite at {'s' if laplace else 'omega'} = {omega[sl][bad[0]]:.6g} rad/s, "
+                f"k = {k[bad[1]]:.6g} rad/m"
             )
         # one real GEMM for both parts: W is real, R complex
         nb = rem.shape[0]
         product = np.concatenate([rem.real, rem.imag]) @ weights
-        eps_over_e = 2 * (1 + nu) * density * omega[sl, None] ** 2 / modulus[sl, None] ** 2
+        eps_over_e = 2 * (1 + nu) * density * omega2 / modulus[sl, None] ** 2
         out[sl] = (
             (1 - nu**2) / modulus[sl, None] * love_unit[None, :]
             + eps_over_e * tail[None, :]
@@ -746,41 +754,8 @@ def element_laplace(
     k_wave = float(np.max(k_s, initial=0.0)) / 0.87  # as _rayleigh_wavenumber, at omega = |s|
     out = np.empty((s.size, len(offsets)), dtype=complex)
     for group in _offset_groups(offsets, c):
-        out[:, group] = _element_laplace_group(
-            offsets[group], c, s, modulus_s, nu, density, thickness, k_wave, eta_min, refine, block
-        )
-    return out
-
-
-def _element_laplace_group(offsets, c, s, modulus_s, nu, density, thickness, k_wave, eta_min, refine, block):
-    """element_laplace for one group of offsets (the twin of _element_frf_group, with omega^2 = -s^2)."""
-    r = np.hypot(offsets[:, 0], offsets[:, 1])
-    quad = wavenumber_quadrature(c, thickness, k_wave, eta_min / 2, r.max(), refine, r_min=r.min())
-    weights = bessel_weights(quad, offsets, c)
-    love_unit = love.rectangle_potential(offsets[:, 0], offsets[:, 1], c, c) / (np.pi * c * c)
-    k = quad.nodes
-    tail = _tail_coefficient(nu) * _tail_weights(quad.k_max, offsets, c)
-    out = np.empty((s.size, len(offsets)), dtype=complex)
-    for start in range(0, s.size, block):
-        sl = slice(start, start + block)
-        e = modulus_s[sl, None]
-        halfspace = 2 * (1 - nu**2) / (e * k[None, :])
-        rem = layer.laplace_compliance(k[None, :], s[sl, None], e, nu, density, thickness)
-        rem -= halfspace
-        if not np.all(np.isfinite(rem)):
-            bad = np.argwhere(~np.isfinite(rem))[0]
-            raise FloatingPointError(
-                f"layer compliance not finite at s = {s[sl][bad[0]]:.6g} rad/s, k = {k[bad[1]]:.6g} rad/m"
-            )
-        nb = rem.shape[0]
-        product = np.concatenate([rem.real, rem.imag]) @ weights
-        # omega^2 = -s^2 in element_frf's 2 (1 + nu) rho omega^2 / E^2
-        eps_over_e = -2 * (1 + nu) * density * s[sl, None] ** 2 / e**2
-        out[sl] = (
-            (1 - nu**2) / e * love_unit[None, :]
-            + eps_over_e * tail[None, :]
-            + product[:nb]
-            + 1j * product[nb:]
+        out[:, group] = _element_group(
+            offsets[group], c, s, modulus_s, nu, density, thickness, k_wave, eta_min, refine, block, laplace=True
         )
     return out
 
