@@ -70,6 +70,7 @@ logger = logging.getLogger(__name__)
 __all__ = [
     "CQ_METHODS", "generating_function", "cq_weights", "element_cq_weights", "cq_kernel", "cq_symbol",
     "MarginResult", "stability_margin", "kernel_margin", "symbol_margin", "fidelity", "weight_decay",
+    "blend_map", "exact_frf", "unique_entries",
 ]
 
 
@@ -179,6 +180,35 @@ def cq_symbol(material, shape, element_size: float, sample_rate: float, theta, m
     return g[:, index]
 
 
+def blend_map(material, element_size: float, sample_rate: float, crossover: float, width: float = 0.05,
+              method: str = "bdf2") -> Callable:
+    """An FRF map for :func:`tyreroad.greens.greens_dataset`: the FRF below the crossover, the CQ symbol above.
+
+    H(f) = w(f) G(i omega) + (1 - w(f)) G(delta(e^{-i omega / fs}) fs), w = 1 below (crossover - width) fs,
+    0 above (crossover + width) fs, a raised cosine between (crossover, width in units of fs). The symbol
+    is evaluated (element_laplace, one call) only where w < 1. The greens stage then folds it into a causal
+    kernel as it does the FRF (IFFT, precursor correction, creep tail).
+    """
+    delta = generating_function(method)
+    fs = float(sample_rate)
+    lo, hi = (crossover - width) * fs, (crossover + width) * fs
+
+    def fmap(frf, omega, offsets):
+        f = np.asarray(omega) / (2 * np.pi)
+        x = np.clip((f - lo) / (hi - lo), 0.0, 1.0)
+        w = 0.5 * (1 + np.cos(np.pi * x))
+        sel = w < 1.0
+        s = delta(np.exp(-1j * np.asarray(omega)[sel] / fs)) * fs
+        s = s.real.clip(min=0.0) + 1j * s.imag
+        sym = element_laplace(offsets, element_size, s, material.laplace_modulus(s), material.poisson,
+                              material.density, material.thickness)
+        out = np.array(frf, dtype=complex)
+        out[sel] = w[sel, None] * out[sel] + (1 - w[sel, None]) * sym
+        return out
+
+    return fmap
+
+
 def weight_decay(kernel: LayerKernel) -> float:
     """|g_{L-1}| / |g_0| at the excitation element: how much memory the kept lags cut off."""
     cx, cy = (kernel.lags.shape[0] - 1) // 2, (kernel.lags.shape[1] - 1) // 2
@@ -199,11 +229,12 @@ class MarginResult:
     theta : numpy.ndarray
         The grid of theta in [0, pi] [rad] (plus refined points, sorted).
     lower : numpy.ndarray
-        lambda_min Re G_d(e^{i theta}) on it (phi = 0), a lower bound of p [m/N].
+        lambda_min Herm(e^{i phi} G_d(e^{i theta})) on it at a tracked phi, a lower bound of p [m/N].
     p : numpy.ndarray
         p(theta) where evaluated in full (NaN elsewhere: there lower >= min p already) [m/N].
     k_safe : numpy.ndarray
-        The spring bound at each theta [N/m] (inf where p >= 0; from phi = 0 alone where p was not evaluated).
+        The spring bound at each theta [N/m] (inf where p > 0; from the tracked phi alone where p was not
+        evaluated: lower bound 1 / -lower, conservative).
     min_p : float
         min over theta of p [m/N].
     theta_min : float
@@ -288,7 +319,7 @@ class _Margin:
         # p within rounding of 0 (a real G_d at theta = 0, pi gives exactly 0 at phi = +-pi/2) is no margin
         if p > 1e-9 * max(np.abs(b).max(), np.abs(c).max()):
             return p, math.inf
-        k = max(math.cos(phi) / -v for phi, v in values.items())
+        k = max((math.cos(phi) / -v for phi, v in values.items() if v < 0), default=0.0)
         return p, k
 
 
@@ -311,9 +342,10 @@ def stability_margin(symbol: Callable, shape, n_theta: int = 2001, max_full: int
 
     Method
     ------
-    1. lower(theta) = lambda_min Re G_d (phi = 0) on the grid: p >= lower everywhere.
-    2. The ``refine_minima`` deepest local minima of ``lower`` are refined in theta (a band narrower than
-       the grid step shows as a dip of the neighbours), and added to the grid.
+    1. lower(theta) = lambda_min Herm(e^{i phi} G_d) on the grid at a phi tracked along theta (three phi per
+       theta, hill climbing): p >= lower everywhere.
+    2. The ``refine_minima`` deepest local minima of ``lower`` are refined in theta (phi = 0 there; a band
+       narrower than the grid step shows as a dip of the neighbours), and added to the grid.
     3. p is evaluated in order of increasing ``lower`` until lower >= min p found (branch and bound: no
        other theta can be lower) or ``max_full`` evaluations; if stopped early, min p is bracketed by
        [min unevaluated lower, min p] and the log says so.
@@ -324,9 +356,18 @@ def stability_margin(symbol: Callable, shape, n_theta: int = 2001, max_full: int
     tables = symbol(theta)
     m = _Margin(symbol, shape)
     lower = np.empty(theta.size)
+    phis = np.zeros(theta.size)
+    scale = np.zeros(theta.size)
+    # a lower bound of p at every grid theta from any phi: track the best phi along theta (hill climbing,
+    # three phi per theta; a passive compliance's best phi is about arg s, which moves with theta)
+    phi, h = 0.0, np.pi / 40
     for i in range(theta.size):
-        lower[i] = _lambda_min(offset_matrix(tables[i]).real)
-    m.evaluations += theta.size
+        a = offset_matrix(tables[i])
+        b, c = a.real, a.imag
+        trial = {q: m.f(b, c, q) for q in (phi, max(phi - h, -np.pi / 2), min(phi + h, np.pi / 2))}
+        phi = max(trial, key=trial.get)
+        lower[i], phis[i] = trial[phi], phi
+        scale[i] = max(np.abs(b).max(), np.abs(c).max())
     # refine the deepest local minima in theta
     interior = np.flatnonzero((lower[1:-1] <= lower[:-2]) & (lower[1:-1] <= lower[2:])) + 1
     ends = [i for i in (0, theta.size - 1) if (i == 0 and lower[0] <= lower[1]) or (i > 0 and lower[i] <= lower[i - 1])]
@@ -341,17 +382,25 @@ def stability_margin(symbol: Callable, shape, n_theta: int = 2001, max_full: int
         extra_l.append(float(res.fun))
     theta = np.concatenate([theta, extra_t])
     lower = np.concatenate([lower, extra_l])
+    phis = np.concatenate([phis, np.zeros(len(extra_t))])
+    scale = np.concatenate([scale, np.full(len(extra_t), scale.max())])
     order = np.argsort(theta)
-    theta, lower = theta[order], lower[order]
+    theta, lower, phis, scale = theta[order], lower[order], phis[order], scale[order]
+    tol = 1e-9 * scale  # a lower bound within rounding of 0 excludes nothing (p must be > 0)
     p = np.full(theta.size, np.nan)
-    k_safe = np.where(lower < 0, 1.0 / np.maximum(-lower, 1e-300), np.inf)
+    # where p is not evaluated: the bound of the one phi tried, cos phi / -lower (conservative)
+    k_safe = np.where(lower < -tol, np.cos(phis) / np.maximum(-lower, 1e-300), np.inf)
+    k_safe[np.abs(lower) <= tol] = 0.0  # no bound at all unless p is evaluated there
     best = math.inf
     done = 0
-    for i in np.argsort(lower):
-        if lower[i] >= best or done >= max_full:
+    # the ends (z = 1, z = -1: a real G_d) first, then by increasing lower bound
+    order = np.argsort(lower)
+    order = np.concatenate([[0, theta.size - 1], order[(order != 0) & (order != theta.size - 1)]])
+    for n, i in enumerate(order):
+        if n >= 2 and ((lower[i] >= best and lower[i] > tol[i]) or done >= max_full):
             break
         p[i], k_full = m.full(float(theta[i]))
-        k_safe[i] = max(k_safe[i], k_full)
+        k_safe[i] = k_full
         best = min(best, p[i])
         done += 1
     unevaluated = np.isnan(p)
