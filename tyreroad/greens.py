@@ -988,6 +988,7 @@ def greens_dataset(
     sample_rate: float,
     n_lags: int,
     n_fft: int,
+    frf_map=None,
 ) -> xr.Dataset:
     """Time-domain and quasi-static element Green's functions of a material's tread layer.
 
@@ -1006,6 +1007,10 @@ def greens_dataset(
         Kept lags.
     n_fft : int
         Transform length (power of two >= 4096).
+    frf_map : callable, optional
+        (frf, omega, offsets) -> frf: replaces the element FRF on the transform's grid before the
+        time kernel is built (a candidate construction, e.g. :func:`tyreroad.cq.blend_map`; offsets
+        in m, frf (n_frequencies, n_offsets)). None: the FRF itself.
 
     Returns
     -------
@@ -1041,6 +1046,8 @@ def greens_dataset(
     # group by group keeps the FRF of a 150 x 200 patch (2049 x 19k complex) out of memory
     for group in _offset_groups(offsets, c):
         frf = element_frf(offsets[group], c, omega, modulus, material.poisson, material.density, material.thickness)
+        if frf_map is not None:
+            frf = frf_map(frf, omega, offsets[group])
         kernel[:, group], pre[group], tot[group], second_half[group], projected[:, group] = time_kernel(
             frf, n_fft, n_lags, correction
         )

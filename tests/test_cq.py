@@ -1,0 +1,110 @@
+"""Convolution-quadrature weights against closed forms; the stability margin on kernels with a known symbol."""
+
+import math
+
+import numpy as np
+import pytest
+
+from tyreroad import cq
+from tyreroad.kernel import LayerKernel
+
+
+def _series_inverse(delta_coeffs, a, dt, n):
+    """Power series of 1 / (delta(zeta) / dt + a) by recursion (delta a polynomial in zeta)."""
+    d = np.zeros(n)
+    d[: len(delta_coeffs)] = delta_coeffs
+    d = d / dt
+    d[0] += a
+    out = np.zeros(n)
+    out[0] = 1.0 / d[0]
+    for k in range(1, n):
+        out[k] = -np.dot(d[1: k + 1], out[k - 1:: -1][:k]) / d[0]
+    return out
+
+
+@pytest.mark.parametrize("a", [0.0, 300.0, 5e4])
+def test_backward_euler_weights_closed_form(a):
+    dt, n = 1 / 51200, 256
+    # a = 0 (an integrator: weights that never decay, a pole on the contour's limit) on 4 n points
+    g = cq.cq_weights(lambda s: 1.0 / (s + a), n, dt, "backward_euler", n_contour=4 * n if a == 0 else None)
+    exact = dt * (1 + a * dt) ** -(np.arange(n) + 1.0)
+    assert np.max(np.abs(g - exact)) < 1e-10 * exact[0]
+
+
+@pytest.mark.parametrize("a", [0.0, 300.0, 5e4])
+def test_bdf2_weights_power_series(a):
+    dt, n = 1 / 51200, 256
+    g = cq.cq_weights(lambda s: 1.0 / (s + a), n, dt, "bdf2", n_contour=4 * n if a == 0 else None)
+    # delta = (1 - z) + (1 - z)^2 / 2 = 3/2 - 2 z + z^2 / 2
+    exact = _series_inverse([1.5, -2.0, 0.5], a, dt, n)
+    assert np.max(np.abs(g - exact)) < 1e-10 * exact[0]
+    # closed form by partial fractions: 3/2 - 2z + z^2/2 + a dt = (z - r1)(z - r2) / 2
+    r1, r2 = np.roots([0.5, -2.0, 1.5 + a * dt])
+    k = np.arange(n)
+    closed = 2 * dt / (r1 - r2) * (r2 ** -(k + 1.0) - r1 ** -(k + 1.0))
+    assert np.max(np.abs(g - closed.real)) < 1e-10 * exact[0]
+
+
+def test_weights_vector_valued_and_sum_rule():
+    dt, n = 1e-3, 64
+    a = np.array([10.0, 100.0])
+    g = cq.cq_weights(lambda s: 1.0 / (s[:, None] + a[None, :]), n, dt, "backward_euler")
+    assert g.shape == (n, 2)
+    exact = dt * (1 + a[None, :] * dt) ** -(np.arange(n)[:, None] + 1.0)
+    assert np.max(np.abs(g - exact)) < 1e-12
+
+
+def test_two_lag_kernel_margin():
+    # one element, lags [g0, g1]: G_d(e^{i theta}) = g0 + g1 e^{-i theta}; G_d(-1) = g0 - g1
+    g0, g1 = 1.0e-5, 0.6e-5
+    kernel = LayerKernel.dynamic(np.array([[[g0, g1]]]), 51200.0)
+    res = cq.kernel_margin(kernel, (1, 1), n_theta=2001)
+    # scalar: p(theta) = max_phi Re(e^{i phi} G) = |G| where |arg G| <= pi/2 (always, g0 > g1 > 0)
+    theta = np.linspace(0, np.pi, 4001)
+    p = np.abs(g0 + g1 * np.exp(-1j * theta))
+    assert res.min_p == pytest.approx(p.min(), rel=1e-8)
+    assert res.min_p == pytest.approx(g0 - g1, rel=1e-8)
+    assert res.theta_min == pytest.approx(np.pi, abs=1e-6)
+    assert res.k_crit == math.inf and res.k_nyquist == math.inf
+
+
+def test_two_lag_kernel_negative_at_nyquist():
+    # g1 > g0: G_d(-1) = g0 - g1 < 0, a root at z = -1 for k = 1 / (g1 - g0). A scalar symbol has
+    # p = |G| cos(max(|arg G| - pi/2, 0)) > 0 wherever G is not a negative real: p = 0 only at theta = pi
+    g0, g1 = 1.0e-5, 1.5e-5
+    kernel = LayerKernel.dynamic(np.array([[[g0, g1]]]), 51200.0)
+    res = cq.kernel_margin(kernel, (1, 1), n_theta=2001, max_full=2001)
+    assert res.k_nyquist == pytest.approx(1.0 / (g1 - g0), rel=1e-12)
+    assert abs(res.min_p) < 1e-9 * g0
+    assert res.theta_min == pytest.approx(np.pi, abs=1e-3)
+    # the scalar march 1 + k G_d(z) = 0 has a root on |z| = 1 only at z = -1: k_crit is that one, there only
+    assert res.k_crit == pytest.approx(1.0 / (g1 - g0), rel=1e-6)
+    assert res.theta_k == pytest.approx(np.pi)
+    (band,) = res.failing_bands()
+    assert band[0] > np.pi - 2e-3
+
+
+def test_margin_negative_for_a_matrix():
+    # 2 x 1 patch, one lag G = [[a, b], [b, a]] (b complex): eigenvalues a +- b with eigenvectors
+    # independent of b, so the numerical range is the segment [a - b, a + b]; a = 1, b = 2i:
+    # p = max_phi min(Re e^{i phi}(1 - 2i), Re e^{i phi}(1 + 2i)) = 1 at phi = 0; with a = -1 + 0j,
+    # b = 2i the segment [-1 - 2i, -1 + 2i] has distance... p = max_phi (-cos phi - 2 |sin phi|) = -1 < 0
+    table = np.zeros((3, 1, 1), dtype=complex)
+    table[1, 0, 0], table[0, 0, 0], table[2, 0, 0] = 1.0, 2.0j, 2.0j
+    symbol = lambda theta: np.broadcast_to(table[:, :, :], (len(theta),) + table.shape[:2] + (1,))[..., 0]
+    res = cq.stability_margin(symbol, (2, 1), n_theta=101)
+    assert res.min_p == pytest.approx(1.0, rel=1e-8)
+    table[1, 0, 0] = -1.0
+    res = cq.stability_margin(symbol, (2, 1), n_theta=101)
+    assert res.min_p == pytest.approx(-1.0, rel=1e-6)
+    # k_safe = max_phi cos phi / (cos phi + 2 |sin phi|) = 1 at phi = 0: I + k G singular for k = 1 (eig -1)
+    assert res.k_crit == pytest.approx(1.0, rel=1e-6)
+
+
+def test_margin_matrix_two_elements():
+    # 2 x 1 patch, one lag: G = [[a, b], [b, a]] real: p = lambda_min = a - |b| at every theta
+    table = np.zeros((3, 1, 1))
+    table[1, 0, 0], table[0, 0, 0], table[2, 0, 0] = 2.0, 0.5, 0.5
+    kernel = LayerKernel.dynamic(table, 1000.0)
+    res = cq.kernel_margin(kernel, (2, 1), n_theta=2001)
+    assert res.min_p == pytest.approx(1.5, rel=1e-10)
