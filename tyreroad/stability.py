@@ -15,8 +15,8 @@ patch. With lambda_min its smallest eigenvalue, no spring set with every k_e bel
 
 can put that root on the unit circle at z = -1; by Cauchy interlacing a contact set smaller than
 the patch only raises its own limit, so k_crit over the whole patch is a safe bound. It is one
-point of the unit circle: the margin over the whole circle is the kernel issue's (not computed
-here). :func:`nyquist_critical_stiffness` computes it (a dense eigen-solve up to
+point of the unit circle; :func:`tyreroad.cq.kernel_margin` measures the margin over the whole circle
+(dense, seconds to minutes per kernel: a study tool, not part of every run). :func:`nyquist_critical_stiffness` computes it (a dense eigen-solve up to
 :data:`tyreroad.solver.FFT_THRESHOLD` elements, Lanczos over the FFT product above).
 
 Every dynamic run records it with the stiffest tangent spring it reached and the fs/2 alternation
