@@ -397,3 +397,24 @@ def test_phase_scaling_beyond_passivity_is_refused():
     mats["bad-anchor"] = {"base": "tread", "loss_scale": 1.5, "loss_anchor": -1.0}
     with pytest.raises(ValueError, match=r"materials\.bad-anchor\.loss_anchor"):
         material_from_config("bad-anchor", mats)
+
+
+def test_a_tables_extrapolated_relaxed_modulus_is_stated(caplog):
+    """Issue 25: with quasi_static_modulus: zero_frequency a table's relaxed modulus is the fit's
+    extrapolation below its data; the log says so with the value, the lowest frequency and the key that
+    sets it from data. Given as a number, nothing is extrapolated and nothing is said."""
+    import logging
+
+    f = np.geomspace(10.0, 30e3, 30)
+    e = GM_TRUE.modulus(2 * np.pi * f)
+    table = {"model": "table", "frequency": f.tolist(), "storage_modulus": e.real.tolist(),
+             "loss_factor": (e.imag / e.real).tolist(), "poisson_ratio": 0.49, "density": 1100.0, "thickness": 0.01}
+    with caplog.at_level(logging.WARNING, logger="tyreroad.material"):
+        m = material_from_config("dma", {"dma": table})
+    msg = caplog.text
+    assert "materials.dma: the relaxed modulus E(0) = " in msg and "lowest frequency 10 Hz" in msg
+    assert f"{m.quasi_static_modulus:.4g} Pa" in msg and "materials.dma.quasi_static_modulus" in msg
+    caplog.clear()
+    with caplog.at_level(logging.WARNING, logger="tyreroad.material"):
+        given = material_from_config("dma", {"dma": {**table, "quasi_static_modulus": 2.0e7}})
+    assert given.quasi_static_modulus == 2.0e7 and "relaxed modulus" not in caplog.text

@@ -658,5 +658,16 @@ def material_from_config(name, materials_section) -> Material:
     )
     if loss_anchor is not None and loss_scale > 1.0:
         _check_phase_scaling(name, built, loss_scale)
+    if model == "table" and qs == "zero_frequency":
+        f_low = float(root["frequency"][0])
+        e_low = float(np.real(material.modulus(2.0 * np.pi * f_low)))
+        logger.warning(
+            "materials.%s: the relaxed modulus E(0) = %.4g Pa is an extrapolation of the table's causal fit below "
+            "its lowest frequency %.4g Hz (E'(%.4g Hz) = %.4g Pa, %.1f %% above it); it sets the quasi-static kernel, "
+            "the creep tail's end and, with springs.modulus: quasi_static, the contact springs. Give "
+            "materials.%s.quasi_static_modulus [Pa] to set it from data.",
+            root_name, material.quasi_static_modulus, f_low, f_low, e_low,
+            100.0 * (e_low / material.quasi_static_modulus - 1.0), root_name,
+        )
     logger.debug("material %s resolved via %s: %s", name, " -> ".join(lineage), resolved)
     return material

@@ -675,7 +675,7 @@ def select_patch(
             f"no {px} x {py}-element patch has {lo:.0%}-{hi:.0%} of its element peaks within "
             f"{selection.fraction_depth * 1e3:g} mm of its top (closest to the target: {best:.1%}; "
             f"range over all candidates {frac.min():.1%}-{frac.max():.1%}); set 'origin' or "
-            f"'patch_selection: centre', or change the surface"
+            f"'patch_selection: centre', widen 'fraction_range', or change the surface"
         )
     logger.info("patch: %d candidates, chose element origin (%d, %d) with %.1f %% of peaks within %.3g mm",
                 frac.size, ci, cj, 100 * best, selection.fraction_depth * 1e3)
