@@ -663,6 +663,20 @@ _ATTRS = {
 }
 
 
+def _read_runs(contacts, settings: StudySettings) -> dict[tuple[str, str, float], dict[str, np.ndarray]]:
+    """The native samples of every contact run, by case key; a case given twice is an error."""
+    runs: dict[tuple[str, str, float], dict[str, np.ndarray]] = {}
+    for i, item in enumerate(contacts):
+        ds = io.read_dataset(item) if isinstance(item, (str, Path)) else item
+        src = str(item) if isinstance(item, (str, Path)) else _source(ds, i)
+        key = _run_key(ds, src, settings)
+        if key in runs:
+            raise ValueError(f"{src}: duplicate run for case {case_label(*key)!r}")
+        runs[key] = native_samples(ds, src, settings)
+        runs[key]["source"] = np.array(src)
+    return runs
+
+
 def aggregate(contacts: Iterable[xr.Dataset | str | Path], settings: StudySettings) -> xr.Dataset:
     """Put all contact runs of the study on one indentation grid (the ``results/study.nc`` content).
 
@@ -687,15 +701,7 @@ def aggregate(contacts: Iterable[xr.Dataset | str | Path], settings: StudySettin
         For a run that does not belong to the study, a duplicate or missing case, or a run that
         does not cover 0 ... d_max.
     """
-    runs: dict[tuple[str, str, float], dict[str, np.ndarray]] = {}
-    for i, item in enumerate(contacts):
-        ds = io.read_dataset(item) if isinstance(item, (str, Path)) else item
-        src = str(item) if isinstance(item, (str, Path)) else _source(ds, i)
-        key = _run_key(ds, src, settings)
-        if key in runs:
-            raise ValueError(f"{src}: duplicate run for case {case_label(*key)!r}")
-        runs[key] = native_samples(ds, src, settings)
-        runs[key]["source"] = np.array(src)
+    runs = _read_runs(contacts, settings)
     expected = expected_cases(settings)
     missing = [case_label(*k) for k in expected if k not in runs]
     if missing:
@@ -714,8 +720,6 @@ def aggregate(contacts: Iterable[xr.Dataset | str | Path], settings: StudySettin
     k_sat_b = np.empty(n_case)
     n_native = np.empty(n_case, dtype=np.int64)
     n_run = np.empty(n_case, dtype=np.int64)
-    fs2_limit = np.empty(n_case)
-    fs2_alt = np.empty(n_case)
     from_tangent = np.zeros(n_case, dtype=np.int8)
     for c, key in enumerate(expected):
         run = runs[key]
@@ -727,8 +731,6 @@ def aggregate(contacts: Iterable[xr.Dataset | str | Path], settings: StudySettin
             native_vars[name][c, : d.size] = run[name]
         n_native[c] = d.size
         n_run[c] = int(run["run_samples"])
-        fs2_limit[c] = float(run["fs2_limit_indentation"])
-        fs2_alt[c] = float(run["fs2_alternation"])
         k_sat[c] = saturated_stiffness(grid, grid_vars["stiffness"][c], settings.saturation_range)
         k_sat_b[c] = saturated_stiffness(grid, grid_vars["backing_stiffness"][c], settings.saturation_range)
         logger.info("case %s: %d native samples, K_sat = %.4g N/m", case_label(*key), d.size, k_sat[c])
@@ -752,8 +754,8 @@ def aggregate(contacts: Iterable[xr.Dataset | str | Path], settings: StudySettin
     data.update({f"native_{name}": var(f"native_{name}", ("case", "sample"), v) for name, v in native_vars.items()})
     data["native_samples"] = var("native_samples", ("case",), n_native)
     data["run_samples"] = var("run_samples", ("case",), n_run)
-    data["fs2_limit_indentation"] = var("fs2_limit_indentation", ("case",), fs2_limit)
-    data["fs2_alternation"] = var("fs2_alternation", ("case",), fs2_alt)
+    for name in ("fs2_limit_indentation", "fs2_alternation"):  # the runs' stability records (tyreroad.stability)
+        data[name] = var(name, ("case",), np.array([float(runs[k][name]) for k in expected]))
     data["equivalent_modulus_scale"] = var("equivalent_modulus_scale", ("case",), scale)
     data["equivalent_misfit"] = var("equivalent_misfit", ("case",), misfit)
     data["saturated_stiffness"] = var("saturated_stiffness", ("case",), k_sat)
