@@ -156,10 +156,10 @@ class OffsetInfluence:
         return self._matrix
 
     def block(self, active: np.ndarray) -> np.ndarray:
-        """G[active, active] without forming the whole matrix [m/N]."""
-        ix, iy = offset_matrix_index(self.shape)
-        sel = np.ix_(active, active)
-        return self.table[ix[sel], iy[sel]]
+        """G[active, active] without forming the whole matrix or its index [m/N]."""
+        nx, ny = self.shape
+        ex, ey = np.divmod(np.asarray(active), ny)
+        return self.table[ex[:, None] - ex[None, :] + nx - 1, ey[:, None] - ey[None, :] + ny - 1]
 
     def apply(self, values: np.ndarray) -> np.ndarray:
         """G v by FFT; v flat (M,) or a field (nx, ny), real or complex; the result has v's shape."""
@@ -250,9 +250,8 @@ def contact_set_stiffness(g_matrix, stiffness) -> complex | float:
 
     Parameters
     ----------
-    g_matrix : array_like or OffsetInfluence
-        Influence matrix G[e, m] of the whole patch, real or complex, shape (M, M) [m/N], or the
-        operator whose block over C is taken.
+    g_matrix : array_like
+        Influence matrix G[e, m] of the whole patch, real or complex, shape (M, M) [m/N].
     stiffness : array_like
         Tangent spring stiffnesses k_e >= 0 [N/m], shape (M,).
 
@@ -263,12 +262,6 @@ def contact_set_stiffness(g_matrix, stiffness) -> complex | float:
     """
     k = checks.nonnegative_array("stiffness", stiffness).ravel()
     active = np.flatnonzero(k)
-    if isinstance(g_matrix, OffsetInfluence):
-        if g_matrix.shape[0] * g_matrix.shape[1] != k.size:
-            raise ValueError(f"stiffness: expected {g_matrix.shape[0] * g_matrix.shape[1]} entries, got {k.size}")
-        if active.size == 0:
-            return 0.0 * g_matrix.table.dtype.type(1)
-        return contact_set_solve(g_matrix.block(active), np.sqrt(k[active]))
     g = np.asarray(g_matrix)
     if g.shape != (k.size, k.size):
         raise ValueError(f"g_matrix: expected shape ({k.size}, {k.size}), got {g.shape}")
