@@ -74,6 +74,8 @@ __all__ = [
     "solve_quasistatic",
     "solve_run",
     "solve_loading",
+    "PreloadStates",
+    "preload_states",
     "linear_range",
     "check_harmonic_amplitude",
     "contact_dataset",
@@ -428,22 +430,93 @@ def _stage_run(surface: xr.Dataset, springs: xr.Dataset, greens: xr.Dataset, mat
     return dataclasses.replace(result, backing_force=kernel.backing_force(result.force), stability=stability)
 
 
+@dataclass(frozen=True)
+class PreloadStates:
+    """Quasi-static (relaxed) contact states at the preloads.
+
+    Attributes
+    ----------
+    preload : numpy.ndarray
+        d0 [m], shape (P,).
+    compression : numpy.ndarray
+        zeta_e [m], shape (P, nx, ny).
+    spring_stiffness : numpy.ndarray
+        k_e(zeta_e) [N/m], shape (P, nx, ny) (0 outside the contact set).
+    force : numpy.ndarray
+        Total force F(d0) [N], shape (P,).
+    tangent_stiffness : numpy.ndarray
+        dF/dd of the quasi-static curve at d0 [N/m], shape (P,).
+    contact_count : numpy.ndarray
+        Elements in contact, shape (P,).
+    """
+
+    preload: np.ndarray
+    compression: np.ndarray
+    spring_stiffness: np.ndarray
+    force: np.ndarray
+    tangent_stiffness: np.ndarray
+    contact_count: np.ndarray
+
+
+def preload_states(z1, springs, relaxed: LayerKernel, preloads, settings: SolverSettings,
+                   threads: int = 1) -> PreloadStates:
+    """Solve the quasi-static contact up to each preload (the relaxed preload states).
+
+    The indentation path is the uniform grid of ``settings.quasistatic_step`` up to the largest
+    preload with the preloads inserted (warm starts); each preload's state is read from the step
+    at that preload.
+
+    Parameters
+    ----------
+    z1 : array_like
+        Road matching heights z1[ex, ey] [m].
+    springs : tyreroad.springs.SpringTable
+        Spring tables, shape (nx, ny, n_zeta) or (M, n_zeta).
+    relaxed : tyreroad.kernel.LayerKernel
+        The static kernel of the relaxed layer (g_static).
+    preloads : sequence of float
+        d0 [m], increasing.
+    settings : tyreroad.solver.SolverSettings
+        Tolerance, iteration limit, indentation step and method.
+    threads : int
+        numba threads and FFT workers.
+
+    Returns
+    -------
+    PreloadStates
+    """
+    if not relaxed.static:
+        raise ValueError(f"{relaxed.name}: the relaxed preload state needs the static kernel, got a dynamic one")
+    z1 = np.asarray(z1, dtype=float)
+    pre = np.asarray(preloads, dtype=float)
+    grid = uniform_indentation_grid(float(pre[-1]), settings.quasistatic_step)
+    path = np.unique(np.concatenate([grid[grid < pre[-1]], pre]))
+    result = solve_path(z1, springs.stiffness, springs.force, springs.zeta_step, relaxed, path, settings,
+                        threads=threads)
+    steps = np.searchsorted(path, pre)
+    zeta = result.compression[steps]
+    _, k = springs.evaluate(zeta.reshape((pre.size,) + springs.stiffness.shape[:-1]))
+    k = k.reshape(zeta.shape)
+    return PreloadStates(
+        preload=pre,
+        compression=zeta,
+        spring_stiffness=k,
+        force=result.force[steps],
+        tangent_stiffness=np.asarray(result.tangent_stiffness)[steps],
+        contact_count=result.contact_count[steps],
+    )
+
+
 def linear_range(z1, springs: SpringTable, relaxed: LayerKernel, preload: float, settings: SolverSettings,
                  threads: int = 1) -> tuple[float, float]:
     """The small-amplitude range of the relaxed preload state at d0 (the state K*(f; d0) linearises):
     (smallest compression of a spring in contact, smallest open gap) [m] (inf where there is none).
 
     A harmonic indentation about d0 stays linear -- no element closes or opens, so K* describes it --
-    only while its amplitude is below both. The state is solved on the uniform grid of
-    ``settings.quasistatic_step`` up to d0 on the static kernel, as the stiffness spectrum's.
+    only while its amplitude is below both. The state is the stiffness spectrum's
+    (:func:`preload_states`).
     """
-    if not relaxed.static:
-        raise ValueError(f"{relaxed.name}: the relaxed preload state needs the static kernel, got a dynamic one")
-    grid = uniform_indentation_grid(float(preload), settings.quasistatic_step)
-    path = np.append(grid[grid < preload], float(preload))
-    state = solve_path(z1, springs.stiffness, springs.force, springs.zeta_step, relaxed, path, settings,
-                       threads=threads)
-    zeta = state.compression[-1].ravel()
+    zeta = preload_states(z1, springs, relaxed, (float(preload),), settings, threads).compression[0].ravel()
     touching, open_gap = zeta[zeta > 0.0], -zeta[zeta < 0.0]
     return (float(touching.min()) if touching.size else math.inf,
             float(open_gap.min()) if open_gap.size else math.inf)

@@ -66,11 +66,10 @@ import numpy as np
 import xarray as xr
 
 from . import checks
-from .contact import solve_path
+from .contact import PreloadStates, preload_states, solve_path
 from .greens import ElementFRF
 from .influence import contact_set_solve, contact_set_stiffness_krylov
 from .kernel import LayerKernel
-from .loading import uniform_indentation_grid
 from .solver import SolverSettings
 from .springs import SpringTable
 
@@ -80,8 +79,6 @@ __all__ = [
     "SpectrumSettings",
     "transient_states",
     "frequency_grid",
-    "PreloadStates",
-    "preload_states",
     "stiffness_spectrum",
     "spectrum_from_datasets",
     "first_harmonic",
@@ -224,83 +221,6 @@ def frequency_grid(f_min: float, f_max: float, n: int, extra: Sequence[float] = 
 # --------------------------------------------------------------------------------------------
 # the relaxed preload states
 # --------------------------------------------------------------------------------------------
-@dataclass(frozen=True)
-class PreloadStates:
-    """Quasi-static (relaxed) contact states at the preloads.
-
-    Attributes
-    ----------
-    preload : numpy.ndarray
-        d0 [m], shape (P,).
-    compression : numpy.ndarray
-        zeta_e [m], shape (P, nx, ny).
-    spring_stiffness : numpy.ndarray
-        k_e(zeta_e) [N/m], shape (P, nx, ny) (0 outside the contact set).
-    force : numpy.ndarray
-        Total force F(d0) [N], shape (P,).
-    tangent_stiffness : numpy.ndarray
-        dF/dd of the quasi-static curve at d0 [N/m], shape (P,).
-    contact_count : numpy.ndarray
-        Elements in contact, shape (P,).
-    """
-
-    preload: np.ndarray
-    compression: np.ndarray
-    spring_stiffness: np.ndarray
-    force: np.ndarray
-    tangent_stiffness: np.ndarray
-    contact_count: np.ndarray
-
-
-def preload_states(z1, springs, relaxed: LayerKernel, preloads, settings: SolverSettings,
-                   threads: int = 1) -> PreloadStates:
-    """Solve the quasi-static contact up to each preload (the relaxed preload states).
-
-    The indentation path is the uniform grid of ``settings.quasistatic_step`` up to the largest
-    preload with the preloads inserted (warm starts); each preload's state is read from the step
-    at that preload.
-
-    Parameters
-    ----------
-    z1 : array_like
-        Road matching heights z1[ex, ey] [m].
-    springs : tyreroad.springs.SpringTable
-        Spring tables, shape (nx, ny, n_zeta) or (M, n_zeta).
-    relaxed : tyreroad.kernel.LayerKernel
-        The static kernel of the relaxed layer (g_static).
-    preloads : sequence of float
-        d0 [m], increasing.
-    settings : tyreroad.solver.SolverSettings
-        Tolerance, iteration limit, indentation step and method.
-    threads : int
-        numba threads and FFT workers.
-
-    Returns
-    -------
-    PreloadStates
-    """
-    if not relaxed.static:
-        raise ValueError(f"{relaxed.name}: the relaxed preload state needs the static kernel, got a dynamic one")
-    z1 = np.asarray(z1, dtype=float)
-    pre = np.asarray(preloads, dtype=float)
-    grid = uniform_indentation_grid(float(pre[-1]), settings.quasistatic_step)
-    path = np.unique(np.concatenate([grid[grid < pre[-1]], pre]))
-    result = solve_path(z1, springs.stiffness, springs.force, springs.zeta_step, relaxed, path, settings,
-                        threads=threads)
-    steps = np.searchsorted(path, pre)
-    zeta = result.compression[steps]
-    _, k = springs.evaluate(zeta.reshape((pre.size,) + springs.stiffness.shape[:-1]))
-    k = k.reshape(zeta.shape)
-    return PreloadStates(
-        preload=pre,
-        compression=zeta,
-        spring_stiffness=k,
-        force=result.force[steps],
-        tangent_stiffness=np.asarray(result.tangent_stiffness)[steps],
-        contact_count=result.contact_count[steps],
-    )
-
-
 def transient_states(z1, springs, layer: LayerKernel, preloads, speed: float, settings: SolverSettings,
                      threads: int = 1) -> PreloadStates:
     """The contact states reached by loading to each preload at ``speed`` (the transient preload states).
