@@ -324,12 +324,20 @@ def compliance(k, omega, modulus, poisson, density, thickness):
     h = checks.real("thickness", thickness, positive=True)
     k = checks.nonnegative_array("k", k)
     omega = checks.nonnegative_array("omega", omega)
-    e = _modulus_array(modulus)
-    k, omega, e = np.broadcast_arrays(k, omega, e)
+    return _evaluate(k, omega, _modulus_array(modulus), nu, h, lambda w: rho * (w * h) ** 2)
+
+
+def _evaluate(k, frequency, e, nu: float, h: float, inertia):
+    """The stable-form compliance over broadcast k [rad/m], frequency and E [Pa] (numba kernel).
+
+    ``inertia(frequency)`` is rho (omega h)^2 [Pa] on the broadcast frequencies (-rho (s h)^2 in the
+    Laplace domain); e_s = inertia / mu [-].
+    """
+    k, frequency, e = np.broadcast_arrays(k, frequency, e)
     mu, _ = _moduli(e, nu)
     r = (1.0 - 2.0 * nu) / (2.0 * (1.0 - nu))  # mu / M, real
     x = np.ascontiguousarray(k * h, dtype=float).ravel()
-    e_s = np.ascontiguousarray(rho * (omega * h) ** 2 / mu, dtype=complex).ravel()
+    e_s = np.ascontiguousarray(inertia(frequency) / mu, dtype=complex).ravel()
     mu_flat = np.ascontiguousarray(mu, dtype=complex).ravel()
     out = np.empty(x.size, dtype=complex)
     _compliance_kernel(x, e_s, mu_flat, r, h, out)
@@ -426,17 +434,8 @@ def laplace_compliance(k, s, modulus_s, poisson, density, thickness):
     h = checks.real("thickness", thickness, positive=True)
     k = checks.nonnegative_array("k", k)
     s = _laplace_frequency(s)
-    e = _laplace_modulus_array(s, modulus_s)
-    k, s, e = np.broadcast_arrays(k, s, e)
-    mu, _ = _moduli(e, nu)
-    r = (1.0 - 2.0 * nu) / (2.0 * (1.0 - nu))  # mu / M, real
-    x = np.ascontiguousarray(k * h, dtype=float).ravel()
     # w^2 = -s^2: e_s = rho (w h)^2 / mu -> -rho (s h)^2 / mu (equal to compliance's e_s at s = i w)
-    e_s = np.ascontiguousarray(rho * -((s * h) ** 2) / mu, dtype=complex).ravel()
-    mu_flat = np.ascontiguousarray(mu, dtype=complex).ravel()
-    out = np.empty(x.size, dtype=complex)
-    _compliance_kernel(x, e_s, mu_flat, r, h, out)
-    return out.reshape(k.shape)[()]
+    return _evaluate(k, s, _laplace_modulus_array(s, modulus_s), nu, h, lambda z: rho * -((z * h) ** 2))
 
 
 def static_compliance(k, modulus, poisson, thickness):
