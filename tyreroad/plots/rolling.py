@@ -116,7 +116,7 @@ def plot_loss(study: xr.Dataset, path) -> None:
                     label=f"{material}: fs/2 chatter, not trustworthy" if bad.any() else None)
     ax.axhspan(1e-3, 1e-2, color="0.9", zorder=0, label="tread hysteresis, typical")
     ax.set_xlabel("speed v [m/s]")
-    ax.set_ylabel("rolling-loss coefficient (W/dx) / F [-]")
+    ax.set_ylabel("rolling-loss coefficient (P/v) / F, steady part [-]")
     ax.set_yscale("log")
     ax.grid(alpha=0.3, which="both")
     ax.legend(fontsize=7)
