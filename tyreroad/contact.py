@@ -299,6 +299,16 @@ def _set_threads(threads: int) -> None:
     numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
 
 
+def _max_spring_stiffness(springs) -> float:
+    """The stiffest tangent a spring set can reach [N/m]: its tables' maximum (beyond the table k stays at
+    its last value), or ``springs.max_stiffness`` for another springs object (inf if it has neither)."""
+    explicit = getattr(springs, "max_stiffness", None)
+    if explicit is not None:
+        return float(explicit)
+    table = getattr(springs, "stiffness", None)
+    return float(np.max(table)) if table is not None else math.inf
+
+
 def run_loading_path(loading: Loading, springs, kernel: LayerKernel, settings: SolverSettings, threads: int = 1,
                      recorder=None):
     """Assemble the collaborators for a loading on a patch and march (the entry point of every run).
@@ -330,6 +340,8 @@ def run_loading_path(loading: Loading, springs, kernel: LayerKernel, settings: S
     if not isinstance(kernel, LayerKernel):
         raise TypeError(f"kernel: expected a LayerKernel (tyreroad.kernel), got {type(kernel).__name__}")
     _set_threads(threads)
+    if not kernel.static:
+        kernel.check_springs(_max_spring_stiffness(springs), settings.stability)
     substrate, history = kernel.collaborators(loading.shape, settings, threads, loading.n_steps)
     if recorder is None:
         recorder = RunRecorder(loading.n_steps, loading.shape, tangent=kernel.static)

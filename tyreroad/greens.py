@@ -106,6 +106,10 @@ __all__ = [
 ]
 
 _MIN_N_FFT = 4096
+#: How the greens stage turns the element FRF into the march's kernel (config ``greens.construction``):
+#: ``seed`` the paper's band-limited IFFT with the negative-time part discarded; ``fold`` the same IFFT
+#: with a causal material's band-limit precursor replaced by a causal correction of the first lags.
+KERNEL_CONSTRUCTIONS = ("seed", "fold")
 #: Creep-fit error below which a material counts as causal, so that its precursor is band-limit ringing.
 CAUSAL_FIT_ERROR = 1e-2
 #: Lags that take the place of a causal material's discarded precursor (see precursor_correction).
@@ -138,11 +142,14 @@ class GreensSettings:
     n_fft : int
         Number of time samples of the inverse transform; the FRF is sampled at
         f_j = j fs / n_fft, j = 0 ... n_fft/2. A power of two >= 4096.
+    construction : str
+        How the kernel is built from the FRF, one of :data:`KERNEL_CONSTRUCTIONS`.
     """
 
     sample_rate: float = 51200.0
     n_lags: int = 256
     n_fft: int = 4096
+    construction: str = "fold"
 
     def __post_init__(self):
         fs = checks.real("greens.sample_rate", self.sample_rate, positive=True)
@@ -156,6 +163,9 @@ class GreensSettings:
             raise ValueError(f"greens.n_fft must be a power of two >= {_MIN_N_FFT}, got {n}")
         if self.n_lags > n // 2:
             raise ValueError(f"greens.n_lags must be <= n_fft/2 = {n // 2}, got {self.n_lags}")
+        if self.construction not in KERNEL_CONSTRUCTIONS:
+            raise ValueError(f"greens.construction: expected one of {list(KERNEL_CONSTRUCTIONS)}, got "
+                             f"{self.construction!r}")
         object.__setattr__(self, "sample_rate", float(fs))
         object.__setattr__(self, "n_lags", int(self.n_lags))
         object.__setattr__(self, "n_fft", n)
@@ -166,7 +176,7 @@ class GreensSettings:
         51.2 kHz, 256 lags, n_fft 4096), unknown keys raise ``ValueError``."""
         if not isinstance(section, Mapping):
             raise ValueError(f"config section 'greens' must be a mapping, got {type(section).__name__}")
-        keys = {"sample_rate", "n_lags", "n_fft"}
+        keys = {"sample_rate", "n_lags", "n_fft", "construction"}
         unknown = set(section) - keys
         if unknown:
             raise ValueError(f"greens: unknown key(s) {sorted(unknown)}; expected {sorted(keys)}")
@@ -989,6 +999,7 @@ def greens_dataset(
     n_lags: int,
     n_fft: int,
     frf_map=None,
+    construction: str = "fold",
 ) -> xr.Dataset:
     """Time-domain and quasi-static element Green's functions of a material's tread layer.
 
@@ -1011,6 +1022,9 @@ def greens_dataset(
         (frf, omega, offsets) -> frf: replaces the element FRF on the transform's grid before the
         time kernel is built (a candidate construction, e.g. :func:`tyreroad.cq.blend_map`; offsets
         in m, frf (n_frequencies, n_offsets)). None: the FRF itself.
+    construction : str
+        One of :data:`KERNEL_CONSTRUCTIONS` (``seed``: the precursor is discarded even for a causal
+        material, as the paper did; ``fold``: it is replaced by a causal correction).
 
     Returns
     -------
@@ -1019,7 +1033,7 @@ def greens_dataset(
         element, ``storage_modulus``/``loss_factor[frequency]``, ``kept_fraction``,
         ``precursor_energy_fraction``; attrs ``sample_rate``, ``n_fft``, ``element_size``.
     """
-    settings = GreensSettings(sample_rate=sample_rate, n_lags=n_lags, n_fft=n_fft)
+    settings = GreensSettings(sample_rate=sample_rate, n_lags=n_lags, n_fft=n_fft, construction=construction)
     nx, ny = _check_n_elements(n_elements)
     c = float(element_size)
     if not c > 0:
@@ -1073,7 +1087,8 @@ def greens_dataset(
     # (precursor_correction); a material that is not causal itself (the seed's loss-scaled
     # variants) has a negative-time response of its own, which stays discarded as the seed
     # discarded it.
-    fold_precursor = creep.fit_error <= CAUSAL_FIT_ERROR
+    causal = creep.fit_error <= CAUSAL_FIT_ERROR
+    fold_precursor = causal and construction != "seed"
     kept_before = float(kernel[:, 0].sum() / g_zero[0])
     kernel -= wrapped[:, None] * g_zero[None, :]
     if fold_precursor:
@@ -1088,7 +1103,8 @@ def greens_dataset(
         "greens %s: g(0) = %.4g m/N, static %.4g m/N, kept fraction %.4f (%.4f before removing the wrapped "
         "creep %.4f and %s the precursor sum %.4f), precursor energy %.2e; %.1f s",
         material.name, frf_excitation[0].real, g_static[0], kept, kept_before, wrapped.sum(),
-        f"correcting lags 0-{taps - 1} for" if fold_precursor else "discarding (material not causal)",
+        f"correcting lags 0-{taps - 1} for" if fold_precursor else
+        ("discarding (material not causal)" if not causal else "discarding (the seed's construction)"),
         precursor_sum[0] / g_zero[0], precursor, time.perf_counter() - t0,
     )
     g_table = np.ascontiguousarray(np.moveaxis(kernel[:, index], 0, -1))
@@ -1156,6 +1172,8 @@ def greens_dataset(
             "density": float(material.density),
             "thickness": float(material.thickness),
             "glassy_compliance": creep.glassy_compliance,
+            "construction": construction,
+            "causal_material": int(causal),
             "precursor_folded": int(fold_precursor),
             "precursor_taps": int(taps) if fold_precursor else 0,
             "precursor_band": PRECURSOR_BAND * settings.sample_rate if fold_precursor else 0.0,

@@ -105,6 +105,12 @@ class LayerKernel:
         a static kernel's backing force is its surface force).
     name : str
         For messages (the material's name).
+    critical_stiffness : float, optional
+        The stiffest element spring for which the march on this kernel is stable on every contact set
+        of its patch [N/m] (inf: every spring; the greens file's stability margin, :mod:`tyreroad.margin`);
+        None: not known (a kernel built in code, or a file from before the margin was stored).
+    construction : str, optional
+        How the kernel was built from the FRF (``greens.construction``), for messages.
     """
 
     lags: np.ndarray
@@ -115,6 +121,8 @@ class LayerKernel:
     response: Any = field(default=None, repr=False)
     backing: Callable[[np.ndarray], np.ndarray] | None = field(default=None, repr=False)
     name: str = "kernel"
+    critical_stiffness: float | None = None
+    construction: str | None = None
 
     def __post_init__(self) -> None:
         g = np.asarray(self.lags, dtype=float)
@@ -192,7 +200,10 @@ class LayerKernel:
             # the layer's uniform-load transfer at the file's rate, on at least 4096 points
             n_fft = max(int(float(greens.attrs.get("n_fft", 4096))), 4096)
             backing = functools.partial(backing_force, material=material, sample_rate=fs, n_fft=n_fft)
-        return cls(lags, False, fs, memory, c, response, backing, name)
+        k_crit = float(greens["critical_stiffness"].values) if "critical_stiffness" in greens else None
+        construction = greens.attrs.get("construction")
+        return cls(lags, False, fs, memory, c, response, backing, name, k_crit,
+                   None if construction is None else str(construction))
 
     # ---------------------------------------------------------------------------------------
     # what the solvers ask
@@ -213,6 +224,34 @@ class LayerKernel:
             return
         if not math.isclose(float(element_size), self.element_size, rel_tol=1e-9):
             raise ValueError(f"element_size differs: surface {element_size} m, greens {self.element_size} m")
+
+    def check_springs(self, max_stiffness: float, policy: str = "refuse") -> None:
+        """Refuse (or, ``policy="warn"``, log) springs stiffer than the kernel's critical stiffness.
+
+        Parameters
+        ----------
+        max_stiffness : float
+            The stiffest tangent any spring of the run can reach [N/m] (its tables' maximum).
+        policy : {"refuse", "warn"}
+            ``solver.stability``.
+
+        Raises
+        ------
+        ValueError
+            With ``refuse``, naming the stiffness, the margin and what to change.
+        """
+        if self.static or self.critical_stiffness is None or not max_stiffness > self.critical_stiffness:
+            return
+        what = (f"{self.name}: the springs of this run reach {max_stiffness:.4g} N/m, past the stability limit of "
+                f"the '{self.construction or 'unknown'}' kernel, k_crit = {self.critical_stiffness:.4g} N/m (the greens "
+                "file's critical_stiffness: the stability margin over the unit circle); the time march would "
+                "alternate at fs/2 and grow")
+        if policy == "warn":
+            logger.warning("%s; running anyway (solver.stability: warn)", what)
+            return
+        raise ValueError(f"{what}. Refused before the first step: select a kernel stable for these springs "
+                         "(greens.construction), soften the springs, or set solver.stability: warn to run and "
+                         "record it")
 
     def needs_memory(self, n_steps: int | None) -> bool:
         """True for a dynamic run longer than the kept lags (a one-lag dynamic kernel is memoryless)."""

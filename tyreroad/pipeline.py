@@ -161,14 +161,17 @@ def run_greens(
 
     material = _material(material_name, material_cfg)
     settings = GreensSettings.from_config(greens_cfg)
+    shape = tuple(int(n) for n in n_elements)
     ds = greens_dataset(
         material,
-        n_elements=tuple(int(n) for n in n_elements),
+        n_elements=shape,
         element_size=float(element_size),
         sample_rate=settings.sample_rate,
         n_lags=settings.n_lags,
         n_fft=settings.n_fft,
+        construction=settings.construction,
     )
+    ds = _judge_kernel(ds, material, shape, settings.construction)
     provenance = {
         "material": {material_name: dict(material.config)},
         "greens": dict(greens_cfg),
@@ -176,6 +179,38 @@ def run_greens(
         "element_size": element_size,
     }
     io.write_dataset(ds, out_nc, provenance, stage="greens", material=material_name)
+
+
+def _judge_kernel(ds, material, shape, construction: str):
+    """The greens stage's checks of its own kernel (issue 23): the stability margin over the unit circle
+    and the fidelity to the element FRF, both stored in the file; a kernel that misses its FRF is refused.
+
+    Raises
+    ------
+    ValueError
+        If a causal material's kernel misses its FRF by more than :data:`tyreroad.fidelity.MAGNITUDE_LIMIT`
+        / :data:`tyreroad.fidelity.PHASE_LIMIT` under any construction but the paper's own (``seed``, kept
+        so that the report can show what the paper's method gives). A material that is not causal (the
+        seed's loss variants) cannot meet its FRF with any causal kernel: its file is written (the
+        frequency-domain stages read it) and the time-domain stages refuse it.
+    """
+    from .fidelity import kernel_fidelity
+    from .kernel import LayerKernel
+    from .margin import patch_margin
+
+    kernel = LayerKernel.from_greens(ds, "dynamic")
+    fidelity = kernel_fidelity(kernel, material, shape)
+    logger.info("greens %s (%s): fidelity to the element FRF %s", material.name, construction, fidelity.describe())
+    if not fidelity.faithful and construction != "seed" and int(ds.attrs.get("causal_material", 1)):
+        raise ValueError(
+            f"greens {material.name}: the '{construction}' kernel misses the element FRF by "
+            f"{fidelity.magnitude:.2%} of |G_0| / {fidelity.phase:.4f} rad over {fidelity.band[0]:g}-"
+            f"{fidelity.band[1]:g} Hz (limits 1 % / 0.01 rad, tyreroad.fidelity): refused, no file written")
+    margin = patch_margin(kernel, shape)
+    theta = xr.DataArray(margin.theta, dims="theta", attrs={"units": "rad", "long_name": "theta = 2 pi f / fs "
+                                                            "on the unit circle z = exp(i theta)"})
+    ds = ds.assign_coords(theta=theta)
+    return ds.assign({**margin.variables(), **fidelity.variables()})
 
 
 def run_greens_figures(greens_ncs: Sequence[str | Path], out_material_png: str | Path, out_frf_png: str | Path) -> None:

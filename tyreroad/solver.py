@@ -50,6 +50,11 @@ class SolverSettings:
         Krylov solver (conjugate gradients, GMRES for kernels that are not even) solves each Newton
         correction to at most this fraction of ||R||_2
         (:class:`tyreroad.newton.FFTSubstrate`).
+    stability : {"refuse", "warn"}
+        What a dynamic run does when the stiffest spring of its tables exceeds the kernel's critical
+        stiffness (the greens file's stability margin, :mod:`tyreroad.margin`): ``refuse`` (default) stops
+        before the first step with an error naming the stiffness, the margin and the cure; ``warn`` runs
+        and records it (the seed's construction beside the default: what the paper's method gives).
     """
 
     tolerance: float = 1e-12
@@ -60,6 +65,7 @@ class SolverSettings:
     preconditioner_block: int = 4
     long_memory: bool = True
     krylov_forcing: float = 1e-6
+    stability: str = "refuse"
 
     def resolved_method(self, n_elements: int, n_steps: int | None = None, n_lags: int | None = None) -> str:
         """``dense`` or ``fft`` for a patch of ``n_elements`` elements (and a run of ``n_steps`` steps
@@ -74,6 +80,8 @@ class SolverSettings:
     def __post_init__(self) -> None:
         if self.method not in ("auto", "dense", "fft"):
             raise ValueError(f"solver.method: expected 'auto', 'dense' or 'fft', got {self.method!r}")
+        if self.stability not in ("refuse", "warn"):
+            raise ValueError(f"solver.stability: expected 'refuse' or 'warn', got {self.stability!r}")
         if not isinstance(self.long_memory, bool):
             raise ValueError(f"solver.long_memory: expected true or false, got {self.long_memory!r}")
         for key in ("tolerance", "d_max", "quasistatic_step"):

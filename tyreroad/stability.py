@@ -160,3 +160,146 @@ def stability_record(kernel: LayerKernel, shape, max_spring_stiffness, force, wo
         logger.info("fs/2 stability: springs up to %.3e N/m, below k_crit = %.3e N/m; alternation %.2e",
                     float(np.max(record.max_spring_stiffness, initial=0.0)), k_crit, record.alternation)
     return record
+
+
+# ----------------------------------------------------------------------------------------------
+# the margin over the whole unit circle, for every contact set: a bound from the circulant embedding
+
+
+class CirculantMargin:
+    r"""A rigorous lower bound of the march's stability margin over the whole unit circle.
+
+    Every contact set's influence matrix over the patch is a principal submatrix of the patch's
+    block-Toeplitz matrix G_d(e^{i theta}) = [g_d(e - m)], and that is the leading principal submatrix of
+    the block-circulant matrix of the same offset table wrapped on its own (2 nx - 1) x (2 ny - 1) grid.
+    For a real phase phi, Herm(e^{i phi} G_d) is, elementwise, Re(e^{i phi} g_d) (g_d is even in the
+    offset), and the circulant's eigenvalues are the 2-D DFT of that table, Re(e^{i phi} G^(theta, k))
+    with G^ = DFT(g_d) (Cauchy interlacing: a principal submatrix's lambda_min is not smaller). So
+
+        p(theta) >= p_bound(theta) = max_phi min_k Re(e^{i phi} G^(theta, k)),
+
+    and where p_bound <= 0, the smallest uniform spring that can put a root of the march on |z| = 1 at
+    theta is at least k_bound(theta) = max_phi cos phi / (-min_k Re(e^{i phi} G^(theta, k))) (see
+    :mod:`tyreroad.cq`). ``k_crit`` = min over theta of k_bound: no spring set with every k_e below it,
+    on any contact set of the patch, makes the march unstable. It is conservative (the circulant is
+    larger than the patch; the phases are a grid) and cheap (one DFT of the kernel per lag, a matrix
+    product per theta chunk), so it is evaluated densely (default 8193 theta in [0, pi]: a failing band
+    0.001 pi wide spans 8 points).
+
+    Attributes
+    ----------
+    theta : numpy.ndarray
+        theta in [0, pi] [rad] (theta = 2 pi f / fs).
+    p_bound : numpy.ndarray
+        The lower bound of p(theta) [m/N].
+    k_bound : numpy.ndarray
+        The lower bound of the spring at which a root reaches |z| = 1 at theta [N/m] (inf where p_bound > 0).
+    """
+
+    def __init__(self, theta, p_bound, k_bound, name: str = "kernel"):
+        self.theta = np.asarray(theta, dtype=float)
+        self.p_bound = np.asarray(p_bound, dtype=float)
+        self.k_bound = np.asarray(k_bound, dtype=float)
+        self.name = name
+
+    @property
+    def min_p(self) -> float:
+        """min over theta of p_bound [m/N] (> 0: stable for every spring set)."""
+        return float(self.p_bound.min())
+
+    @property
+    def k_crit(self) -> float:
+        """min over theta of k_bound [N/m] (inf: stable for every spring set S >= 0, hard contact included)."""
+        return float(self.k_bound.min())
+
+    @property
+    def theta_k(self) -> float:
+        """Where k_crit is reached [rad] (NaN when k_crit is infinite)."""
+        return float(self.theta[int(np.argmin(self.k_bound))]) if math.isfinite(self.k_crit) else math.nan
+
+    def failing_bands(self) -> list[tuple[float, float]]:
+        """theta intervals [rad] where p_bound <= 0."""
+        bad = ~(self.p_bound > 0)
+        edges = np.flatnonzero(np.diff(np.concatenate([[0], bad.astype(int), [0]])))
+        return [(float(self.theta[a]), float(self.theta[b - 1])) for a, b in zip(edges[::2], edges[1::2])]
+
+    def describe(self) -> str:
+        if math.isfinite(self.k_crit):
+            bands = ", ".join(f"{a / np.pi:.3f}-{b / np.pi:.3f} pi" for a, b in self.failing_bands()[:4])
+            return (f"{self.name}: stable for springs below k_crit >= {self.k_crit:.4g} N/m (bound; reached at "
+                    f"theta = {self.theta_k / np.pi:.4f} pi); margin fails on {bands}")
+        return f"{self.name}: stable for every spring set (min p_bound = {self.min_p:.3e} m/N over the unit circle)"
+
+    def variables(self) -> dict:
+        """The margin as greens-dataset variables (docs/data_contracts.md)."""
+        return {
+            "margin_p": ("theta", self.p_bound, {
+                "units": "m/N", "long_name": "lower bound of the march's stability margin p(theta) = max_phi "
+                "lambda_min Herm(exp(i phi) G_d(exp(i theta))), from the circulant embedding (> 0: no spring "
+                "set S >= 0 puts a root on |z| = 1 there)"}),
+            "margin_spring_bound": ("theta", self.k_bound, {
+                "units": "N/m", "long_name": "lower bound of the element spring at which a root of the march "
+                "reaches |z| = 1 at theta (inf where margin_p > 0)"}),
+            "critical_stiffness": ((), self.k_crit, {
+                "units": "N/m", "long_name": "springs below this are stable on every contact set of the patch "
+                "(min over theta of margin_spring_bound; inf: every spring, hard contact included)"}),
+            "critical_theta": ((), self.theta_k, {
+                "units": "rad", "long_name": "theta = 2 pi f / fs where critical_stiffness is reached"}),
+            "margin_min": ((), self.min_p, {
+                "units": "m/N", "long_name": "min over theta of margin_p"}),
+        }
+
+    @classmethod
+    def from_dataset(cls, ds) -> "CirculantMargin | None":
+        """The margin stored in a greens dataset, or None (a file from before it was stored)."""
+        if "margin_p" not in ds:
+            return None
+        return cls(ds["theta"].values, ds["margin_p"].values, ds["margin_spring_bound"].values,
+                   str(ds.attrs.get("material", "kernel")))
+
+
+def circulant_margin(kernel: LayerKernel, shape, n_theta: int = 8193, n_phi: int = 33,
+                     chunk: int = 256) -> CirculantMargin:
+    """:class:`CirculantMargin` of a dynamic kernel (kept lags + memory) over an (nx, ny) patch.
+
+    Parameters
+    ----------
+    kernel : LayerKernel
+        A dynamic kernel.
+    shape : tuple of int
+        Patch (nx, ny): the offsets the bound covers (every contact set inside it).
+    n_theta : int
+        Points on [0, pi].
+    n_phi : int
+        Phases on [-pi/2, pi/2] (odd: phi = 0 included, exact at theta = 0 and pi).
+    chunk : int
+        theta per matrix product (memory: chunk x (2 nx - 1)(2 ny - 1) complex).
+    """
+    if kernel.static:
+        raise ValueError(f"{kernel.name}: a static kernel has no time march")
+    if n_theta < 3 or n_phi < 1 or n_phi % 2 == 0:
+        raise ValueError(f"n_theta >= 3 and odd n_phi expected, got {n_theta}, {n_phi}")
+    nx, ny = shape
+    g = kernel.table(shape)
+    # circulant eigenvalues per lag: offset 0 moved to index 0; g even in the offset -> real DFT
+    spectra = np.fft.fft2(np.fft.ifftshift(g, axes=(0, 1)), axes=(0, 1)).real.reshape(-1, g.shape[2])
+    theta = np.linspace(0.0, np.pi, int(n_theta))
+    phis = np.linspace(-np.pi / 2, np.pi / 2, int(n_phi)) if n_phi > 1 else np.zeros(1)
+    rot = np.exp(1j * phis)
+    lags = np.arange(g.shape[2])
+    m = np.empty((phis.size, theta.size))
+    for start in range(0, theta.size, chunk):
+        t = theta[start:start + chunk]
+        sym = spectra @ np.exp(-1j * np.outer(lags, t))  # (K, n_t)
+        if kernel.memory is not None:
+            cx, cy = (kernel.lags.shape[0] - 1) // 2, (kernel.lags.shape[1] - 1) // 2
+            tail = kernel.memory.frequency_response(t * kernel.sample_rate / (2 * np.pi), kernel.sample_rate)
+            tail = tail[:, cx - (nx - 1): cx + nx, cy - (ny - 1): cy + ny]
+            sym = sym + np.fft.fft2(np.fft.ifftshift(tail, axes=(1, 2)), axes=(1, 2)).reshape(t.size, -1).T
+        for j, r in enumerate(rot):
+            m[j, start:start + t.size] = (r * sym).real.min(axis=0)
+    p_bound = m.max(axis=0)
+    with np.errstate(divide="ignore"):
+        k_phi = np.where(m < 0, np.cos(phis)[:, None] / np.maximum(-m, 1e-300), 0.0)
+    k_bound = np.where(p_bound > 0, np.inf, k_phi.max(axis=0))
+    return CirculantMargin(theta, p_bound, k_bound, kernel.name)

@@ -1,0 +1,145 @@
+"""The greens stage's checks of its kernel (issue 23): the stability margin over the unit circle (circulant
+bound, patch certification) against the slow eigen-solve reference of tyreroad.cq and against a march that
+chatters past it; the fidelity to the FRF; the refusal of springs past the margin."""
+
+from __future__ import annotations
+
+import logging
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from tyreroad import cq
+from tyreroad.config import load_config
+from tyreroad.contact import SolverSettings, solve_path
+from tyreroad.fidelity import kernel_fidelity
+from tyreroad.greens import greens_dataset
+from tyreroad.influence import offset_matrix
+from tyreroad.kernel import LayerKernel
+from tyreroad.margin import patch_margin
+from tyreroad.material import material_from_config
+from tyreroad.springs import linear_tables
+from tyreroad.stability import circulant_margin, fs2_alternation, nyquist_critical_stiffness
+
+ROOT = Path(__file__).resolve().parents[1]
+
+FS = 51200.0
+SHAPE = (6, 6)
+
+
+@pytest.fixture(scope="module")
+def tread():
+    return material_from_config("tread", load_config(ROOT / "config" / "config.yaml")["materials"])
+
+
+@pytest.fixture(scope="module")
+def fold_kernel(tread):
+    ds = greens_dataset(tread, SHAPE, 1e-3, FS, 256, 4096, construction="fold")
+    return LayerKernel.from_greens(ds, "dynamic")
+
+
+def test_circulant_bound_is_below_the_patch_eigenvalue_everywhere(fold_kernel):
+    """The bound's claim, checked: for random theta and phi, lambda_min Herm(e^{i phi} G_d) of the patch
+    (dense eigen-solve) >= min over the circulant's eigenvalues; and it is not vacuous (within a factor
+    of the truth at theta = pi)."""
+    bound = circulant_margin(fold_kernel, SHAPE, n_theta=257, n_phi=1)  # phi = 0 only: the bound at phi = 0
+    rng = np.random.default_rng(7)
+    for i in rng.choice(bound.theta.size, 12, replace=False):
+        a = offset_matrix(fold_kernel.own_frequency_response(np.array([bound.theta[i] * FS / (2 * np.pi)]),
+                                                             SHAPE)[0])
+        lam = np.linalg.eigvalsh(a.real)[0]
+        assert lam >= bound.p_bound[i] - 1e-12 * np.abs(a).max()
+    lam_pi = nyquist_critical_stiffness(fold_kernel, SHAPE)[1]
+    assert lam_pi < 0
+    assert bound.p_bound[-1] <= lam_pi and bound.p_bound[-1] > 3 * lam_pi
+
+
+def test_patch_margin_equals_the_eigen_solve_reference(fold_kernel):
+    """patch_margin (bound + Cholesky certification + full solves where needed) against
+    tyreroad.cq.stability_margin (eigen-solves everywhere, phase optimised): the same k_crit, at the
+    same theta, on the 6 x 6 patch of today's kernel (it fails only at fs/2: k_crit = -1/lambda_min G_d(-1))."""
+    fast = patch_margin(fold_kernel, SHAPE, n_theta=1025)
+    slow = cq.kernel_margin(fold_kernel, SHAPE, n_theta=1025)
+    assert fast.method == "patch"
+    assert fast.k_crit == pytest.approx(slow.k_crit, rel=1e-6)
+    assert fast.theta_k == pytest.approx(np.pi)
+    k_nyq, _ = nyquist_critical_stiffness(fold_kernel, SHAPE)
+    assert fast.k_crit == pytest.approx(k_nyq, rel=1e-7)  # the phase search lands within 1e-5 rad of 0
+    # every grid point the slow reference proves stable is not failing in the fast one, and vice versa
+    slow_bad = np.isfinite(np.interp(fast.theta, slow.theta, np.where(np.isfinite(slow.k_safe), 1.0, np.inf)))
+    assert np.array_equal(np.isfinite(fast.k_safe), slow_bad)
+
+
+def test_march_chatters_past_the_stored_margin_and_not_below(fold_kernel):
+    """The margin means what it says: a 6 x 6 patch on linear springs held at constant indentation for
+    600 steps (a step at t = 0 excites every frequency): 0.8 k_crit decays, 1.25 k_crit alternates at fs/2 and grows."""
+    k_crit = patch_margin(fold_kernel, SHAPE, n_theta=513).k_crit
+    z1 = np.zeros(SHAPE)
+    d = np.full(600, 2e-5)
+    alternation = {}
+    for factor in (0.8, 1.25):
+        stiffness, force = linear_tables(36, factor * k_crit)
+        run = solve_path(z1, stiffness, force, 1e-6, fold_kernel, d, SolverSettings(method="dense"))
+        f = run.force
+        alternation[factor] = (fs2_alternation(f[50:150], fraction=1.0), fs2_alternation(f[-100:], fraction=1.0))
+    assert alternation[0.8][1] < 0.5 * alternation[0.8][0]
+    # past the limit the alternation grows until the springs open (force >= 0 bounds it)
+    assert alternation[1.25][1] > 0.1 and alternation[1.25][1] > 100 * alternation[0.8][1]
+
+
+def test_springs_past_the_margin_are_refused_before_the_first_step(fold_kernel, caplog):
+    kernel = LayerKernel(fold_kernel.lags, False, FS, fold_kernel.memory, 1e-3, name="tread",
+                         critical_stiffness=1.0e4, construction="fold")
+    stiffness, force = linear_tables(36, 2.0e4)
+    step = 1e-6
+    d = np.linspace(0, 1e-5, 20)
+    with pytest.raises(ValueError, match=r"2e\+04 N/m.*k_crit = 1e\+04 N/m.*greens.construction.*solver.stability"):
+        solve_path(np.zeros(SHAPE), stiffness, force, step, kernel, d, SolverSettings(method="dense"))
+    with caplog.at_level(logging.WARNING):
+        run = solve_path(np.zeros(SHAPE), stiffness, force, step, kernel, d,
+                         SolverSettings(method="dense", stability="warn"))
+    assert run.force.size == 20 and "running anyway" in caplog.text
+    soft, force = linear_tables(36, 0.9e4)
+    solve_path(np.zeros(SHAPE), soft, force, step, kernel, d, SolverSettings(method="dense"))
+
+
+def test_fidelity_of_todays_kernel_and_of_a_wrong_one(tread, fold_kernel):
+    """Today's kernel meets the FRF (0.3-0.5 % of |G_0|); the same kernel with its lags scaled by 1.02 misses
+    it by 2 % (a factor the check must catch)."""
+    ok = kernel_fidelity(fold_kernel, tread, SHAPE)
+    assert ok.faithful and 0.001 < ok.magnitude < 0.006 and ok.phase < 0.006
+    wrong = LayerKernel(1.02 * fold_kernel.lags, False, FS, fold_kernel.memory, 1e-3, name="scaled")
+    bad = kernel_fidelity(wrong, tread, SHAPE)
+    assert not bad.faithful and 0.015 < bad.magnitude < 0.03
+
+
+def test_greens_stage_stores_margin_and_fidelity_and_refuses_an_unfaithful_kernel(tmp_path, monkeypatch, tread):
+    import xarray as xr
+
+    from tyreroad import greens as greens_module
+    from tyreroad import pipeline
+
+    cfg = load_config(ROOT / "config" / "config.yaml")
+    out = tmp_path / "g.nc"
+    pipeline.run_greens("tread", cfg["materials"]["tread"], {"construction": "fold"}, [6, 6], 1e-3, out)
+    ds = xr.open_dataset(out)
+    assert float(ds["critical_stiffness"]) == pytest.approx(
+        nyquist_critical_stiffness(LayerKernel.from_greens(ds, "dynamic"), SHAPE)[0], rel=1e-7)
+    assert ds["margin_spring"].sizes["theta"] == 4097 and ds.attrs["construction"] == "fold"
+    assert float(ds["fidelity_magnitude"]) < 0.01
+    assert LayerKernel.from_greens(ds, "dynamic").critical_stiffness == float(ds["critical_stiffness"])
+    ds.close()
+    # a construction that scales the FRF by 3 % is refused, and leaves no file
+    real = greens_module.greens_dataset
+
+    def scaled(*args, **kwargs):
+        return real(*args, frf_map=lambda frf, omega, offsets: 1.03 * frf, **kwargs)
+
+    monkeypatch.setattr(greens_module, "greens_dataset", scaled)
+    bad = tmp_path / "bad.nc"
+    with pytest.raises(ValueError, match=r"greens tread: the 'fold' kernel misses the element FRF by 3\.0"):
+        pipeline.run_greens("tread", cfg["materials"]["tread"], {"construction": "fold"}, [6, 6], 1e-3, bad)
+    assert not bad.exists()
+    assert math.isfinite(float(xr.open_dataset(out)["critical_stiffness"]))

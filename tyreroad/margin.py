@@ -1,0 +1,219 @@
+r"""The stability margin of a march kernel over the whole unit circle, as the greens stage stores it (issue 23).
+
+The march is stable for a spring set S = diag(k_e) >= 0 if I + S^(1/2) G_d(z) S^(1/2) is nonsingular on
+|z| >= 1 (G_d the kernel's own transfer function over the patch, kept lags + memory). With
+
+    p(theta) = max_{|phi| <= pi/2} lambda_min Herm(e^{i phi} G_d(e^{i theta}))
+
+p > 0 at theta rules out a root there for every S >= 0 (:mod:`tyreroad.cq`); where it does not, the
+smallest spring that can put a root on the circle at theta is k_safe(theta) (a lower bound, exact at
+theta = pi for uniform springs). :func:`patch_margin` evaluates this densely and cheaply:
+
+1. the circulant bound of :func:`tyreroad.stability.circulant_margin` (every theta of the grid, one
+   DFT per lag): where it is positive, p > 0 is proven for every contact set of the patch;
+2. on the rest of the grid, p > 0 is certified on the patch's own matrix by a Cholesky factorisation of
+   Herm(e^{i phi} G_d) - tol I at a phase tracked along theta (and phi = 0, +-pi/2) — a few times cheaper
+   than an eigen-solve;
+3. where no phase certifies, p and k_safe are computed in full (eigen-solves, phase optimised: the
+   ``_Margin`` of :mod:`tyreroad.cq`).
+
+The result ``critical_stiffness`` = min over theta of k_safe: no spring set with every k_e below it puts
+a root of the march on |z| = 1 (inf: every spring set, hard contact included). Patches above
+:data:`tyreroad.solver.FFT_THRESHOLD` elements keep the circulant bound alone (conservative: its
+truncated-offset symbol can dip below zero where the patch matrix does not), and say so.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+
+import numpy as np
+import scipy.linalg
+
+from .influence import offset_matrix_index
+from .kernel import LayerKernel
+from .solver import FFT_THRESHOLD
+from .stability import circulant_margin
+
+logger = logging.getLogger(__name__)
+
+__all__ = ["PatchMargin", "patch_margin"]
+
+#: Relative level (of the largest |entry| of G_d) below which p counts as zero.
+MARGIN_TOLERANCE = 1e-9
+
+
+class PatchMargin:
+    """The stability margin a greens file stores (see the module docstring).
+
+    Attributes
+    ----------
+    theta : numpy.ndarray
+        theta = 2 pi f / fs on [0, pi] [rad].
+    p_bound : numpy.ndarray
+        The circulant lower bound of p(theta) [m/N].
+    k_safe : numpy.ndarray
+        The spring at which a root of the march can reach |z| = 1 at theta [N/m] (inf where p > 0 is proven).
+    method : str
+        ``patch`` (the patch's own matrices where the bound fails) or ``circulant`` (bound only).
+    certified : int
+        Grid points where p > 0 was proven on the patch's matrix (step 2).
+    full : int
+        Grid points evaluated in full (step 3).
+    seconds : float
+        Wall time [s].
+    """
+
+    def __init__(self, theta, p_bound, k_safe, method, certified=0, full=0, seconds=0.0, name="kernel"):
+        self.theta = np.asarray(theta, dtype=float)
+        self.p_bound = np.asarray(p_bound, dtype=float)
+        self.k_safe = np.asarray(k_safe, dtype=float)
+        self.method = str(method)
+        self.certified = int(certified)
+        self.full = int(full)
+        self.seconds = float(seconds)
+        self.name = name
+
+    @property
+    def k_crit(self) -> float:
+        """min over theta of k_safe [N/m] (inf: stable for every spring set S >= 0)."""
+        return float(self.k_safe.min())
+
+    @property
+    def theta_k(self) -> float:
+        """Where k_crit is reached [rad] (NaN when inf)."""
+        return float(self.theta[int(np.argmin(self.k_safe))]) if math.isfinite(self.k_crit) else math.nan
+
+    def failing_bands(self) -> list[tuple[float, float]]:
+        """theta intervals [rad] where k_safe is finite."""
+        bad = np.isfinite(self.k_safe)
+        edges = np.flatnonzero(np.diff(np.concatenate([[0], bad.astype(int), [0]])))
+        return [(float(self.theta[a]), float(self.theta[b - 1])) for a, b in zip(edges[::2], edges[1::2])]
+
+    def describe(self) -> str:
+        how = ("patch matrices" if self.method == "patch" else "circulant bound only (conservative)")
+        if math.isfinite(self.k_crit):
+            bands = ", ".join(f"{a / np.pi:.4f}-{b / np.pi:.4f} pi" for a, b in self.failing_bands()[:4])
+            return (f"{self.name}: stable for springs below k_crit = {self.k_crit:.4g} N/m (theta = "
+                    f"{self.theta_k / np.pi:.4f} pi; fails on {bands}; {how}, {self.theta.size} theta, "
+                    f"{self.seconds:.1f} s)")
+        return (f"{self.name}: stable for every spring set, hard contact included ({how}, {self.theta.size} "
+                f"theta, {self.seconds:.1f} s)")
+
+    def variables(self) -> dict:
+        """Greens-dataset variables (docs/data_contracts.md "Greens dataset")."""
+        return {
+            "margin_p_bound": ("theta", self.p_bound, {
+                "units": "m/N", "long_name": "circulant lower bound of the march's stability margin "
+                "p(theta) = max_phi lambda_min Herm(exp(i phi) G_d(exp(i theta))) (> 0: no spring set puts a "
+                "root on |z| = 1 there)"}),
+            "margin_spring": ("theta", self.k_safe, {
+                "units": "N/m", "long_name": "smallest element spring that can put a root of the time march on "
+                f"|z| = 1 at theta (inf: p > 0 proven; {self.method})"}),
+            "critical_stiffness": ((), self.k_crit, {
+                "units": "N/m", "long_name": "min over theta of margin_spring: springs below it are stable on "
+                "every contact set of the patch (inf: every spring, hard contact included)",
+                "method": self.method}),
+            "critical_theta": ((), self.theta_k, {
+                "units": "rad", "long_name": "theta = 2 pi f / fs where critical_stiffness is reached (NaN: none)"}),
+        }
+
+    @classmethod
+    def from_dataset(cls, ds) -> "PatchMargin | None":
+        """The margin stored in a greens dataset, or None (a file without one)."""
+        if "margin_spring" not in ds:
+            return None
+        return cls(ds["theta"].values, ds["margin_p_bound"].values, ds["margin_spring"].values,
+                   ds["critical_stiffness"].attrs.get("method", "patch"), name=str(ds.attrs.get("material", "kernel")))
+
+
+def _chol_ok(matrix: np.ndarray) -> bool:
+    _, info = scipy.linalg.lapack.dpotrf(matrix, lower=1, clean=0, overwrite_a=1)
+    return info == 0
+
+
+def _lambda_min(matrix: np.ndarray) -> float:
+    return float(scipy.linalg.eigh(matrix, eigvals_only=True, subset_by_index=[0, 0], check_finite=False)[0])
+
+
+def _full(b: np.ndarray, c: np.ndarray, scale: float, n_phi: int = 11) -> tuple[float, float]:
+    """(p, k_safe) at one theta from Re G_d = b, Im G_d = c: a phase grid, then bounded Brent around the best."""
+    import scipy.optimize
+
+    def f(phi):
+        return _lambda_min(math.cos(phi) * b - math.sin(phi) * c)
+
+    phis = np.linspace(-np.pi / 2, np.pi / 2, n_phi)
+    values = {float(phi): f(phi) for phi in phis}
+    best = max(values, key=values.get)
+    step = phis[1] - phis[0]
+    res = scipy.optimize.minimize_scalar(lambda phi: -f(phi), bounds=(max(best - step, -np.pi / 2),
+                                         min(best + step, np.pi / 2)), method="bounded",
+                                         options={"xatol": 1e-5 * step})
+    values[float(res.x)] = -float(res.fun)
+    p = max(values.values())
+    if p > MARGIN_TOLERANCE * scale:
+        return p, math.inf
+    return p, max((math.cos(phi) / -v for phi, v in values.items() if v < 0), default=0.0)
+
+
+def patch_margin(kernel: LayerKernel, shape, n_theta: int = 4097, chunk: int = 64) -> PatchMargin:
+    """The stability margin of a dynamic kernel over an (nx, ny) patch, densely on theta in [0, pi].
+
+    Parameters
+    ----------
+    kernel : LayerKernel
+        A dynamic kernel (kept lags and memory).
+    shape : tuple of int
+        Patch (nx, ny).
+    n_theta : int
+        Grid points on [0, pi] (4097: a failing band 0.001 pi wide spans 4 points).
+    chunk : int
+        theta per transfer-function evaluation.
+
+    Returns
+    -------
+    PatchMargin
+    """
+    t0 = time.perf_counter()
+    nx, ny = shape
+    bound = circulant_margin(kernel, shape, n_theta=n_theta)
+    theta = bound.theta
+    k_safe = bound.k_bound.copy()
+    todo = np.flatnonzero(~(bound.p_bound > 0))
+    if nx * ny > FFT_THRESHOLD:
+        out = PatchMargin(theta, bound.p_bound, k_safe, "circulant", seconds=time.perf_counter() - t0,
+                          name=kernel.name)
+        logger.info("stability margin %s", out.describe())
+        return out
+    ix, iy = offset_matrix_index(shape)
+    certified = full = 0
+    phi = math.pi / 2  # a lossy layer's compliance is certified by its dissipation, phi = +pi/2
+    fs = kernel.sample_rate
+    for start in range(0, todo.size, chunk):
+        idx = todo[start:start + chunk]
+        tables = kernel.own_frequency_response(theta[idx] * fs / (2 * np.pi), shape)
+        for j, i in enumerate(idx):
+            a = tables[j][ix, iy]
+            b, c = a.real, a.imag
+            scale = max(float(np.abs(b).max()), float(np.abs(c).max()))
+            tol = MARGIN_TOLERANCE * scale
+            ok = False
+            for trial in dict.fromkeys((phi, math.pi / 2, -math.pi / 2, 0.0)):
+                m = math.cos(trial) * b - math.sin(trial) * c
+                m[np.diag_indices_from(m)] -= tol
+                if _chol_ok(m):
+                    phi, ok = trial, True
+                    break
+            if ok:
+                k_safe[i] = math.inf
+                certified += 1
+            else:
+                _, k_safe[i] = _full(b, c, scale)
+                full += 1
+    out = PatchMargin(theta, bound.p_bound, k_safe, "patch", certified, full, time.perf_counter() - t0, kernel.name)
+    logger.info("stability margin %s: %d theta proven by the circulant bound, %d certified on the patch, %d in full",
+                out.describe(), theta.size - todo.size, certified, full)
+    return out
