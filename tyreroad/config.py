@@ -279,6 +279,12 @@ def check_references(config: Mapping[str, Any]) -> None:
             raise ConfigError(f"materials.{name}.base = {base!r}: not a preset in materials")
         if base is None and "model" not in preset:
             raise ConfigError(f"materials.{name}: needs either 'model' or 'base'")
+    own = config.get("greens", {}).get("construction", "fold")
+    if own in study.get("compare_constructions", []):
+        raise ConfigError(
+            f"study.compare_constructions = {study['compare_constructions']!r}: names the study's own kernel "
+            f"construction greens.construction = {own!r}; list only the others to run beside it"
+        )
     loadings = config.get("loadings", {})
     for preset, names in study.get("loadings", {}).items():
         if preset not in loadings:

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .greens import element_frf, offset_table_index, unique_offsets
+from .greens import element_frf, unique_offsets
 from .kernel import LayerKernel
 
 __all__ = ["MAGNITUDE_LIMIT", "PHASE_LIMIT", "FIDELITY_BAND", "KernelFidelity", "kernel_fidelity"]

@@ -307,11 +307,14 @@ def run_report(
     out_md: str | Path,
     loading_nc: str | Path | None = None,
     spectra_ncs: Sequence[str | Path] = (),
+    construction_ncs: Sequence[str | Path] = (),
+    construction_greens_ncs: Sequence[str | Path] = (),
 ) -> None:
     """``results/report.md``: the seed's claims checked against the measured numbers; given the
     stiffness-spectrum files, the section on K*(f; d0); given ``loading_nc`` (results/loading.nc),
-    the hysteresis of the load-unload cycles. (The rolling section is ``results/rolling.md`` of the
-    named target ``rolling``.)"""
+    the hysteresis of the load-unload cycles; given comparison studies of other kernel constructions
+    (``results/constructions/<name>/study.nc`` and their greens files), the study beside them. (The
+    rolling section is ``results/rolling.md`` of the named target ``rolling``.)"""
     from .report import build_report, write_report
     from .study import StudySettings, open_study
 
@@ -326,8 +329,22 @@ def run_report(
         config={"study": dict(study_cfg), "variants": dict(variants)},
         spectra=[io.read_dataset(p) for p in spectra_ncs],
         loading=None if loading_nc is None else io.read_dataset(loading_nc),
+        constructions=_construction_studies(construction_ncs, construction_greens_ncs),
     )
     write_report(text, out_md)
+
+
+def _construction_studies(study_ncs, greens_ncs) -> dict:
+    """{construction: (study dataset, [greens datasets])} of the comparison studies (the construction is the
+    folder name: results/constructions/<name>/study.nc, .../<name>/greens/<material>.nc)."""
+    from .study import open_study
+
+    out = {}
+    for p in study_ncs:
+        name = Path(p).parent.name
+        greens = [io.read_dataset(g) for g in greens_ncs if Path(g).parent.parent.name == name]
+        out[name] = (open_study(p), greens)
+    return out
 
 
 def run_loading(

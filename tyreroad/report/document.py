@@ -20,6 +20,7 @@ from .sections import (
     ReportContext,
     cases_section,
     claims_section,
+    construction_section,
     config_section,
     decides_section,
     equivalent_section,
@@ -48,6 +49,7 @@ REPORT_SECTIONS: tuple[Section, ...] = (
     equivalent_section,
     cases_section,
     stability_section,
+    construction_section,
     stiffness_spectrum_section,
     surface_section,
     material_section,
@@ -76,6 +78,7 @@ def build_report(
     spectra: Sequence[xr.Dataset] | None = None,
     loading: xr.Dataset | None = None,
     thresholds: Mapping[str, float] | None = None,
+    constructions: Mapping[str, tuple] | None = None,
 ) -> str:
     """The markdown text of ``results/report.md``.
 
@@ -103,6 +106,9 @@ def build_report(
         load-unload cycles; None omits it.
     thresholds : mapping, optional
         Overrides of :data:`tyreroad.report.claims.THRESHOLDS`, used by the claims and the prose.
+    constructions : mapping, optional
+        {construction: (study dataset, greens datasets)} of the same study run with other kernel
+        constructions (``study.compare_constructions``): the section that sets them beside this one.
 
     Returns
     -------
@@ -134,6 +140,9 @@ def build_report(
         greens=greens_by_material(greens),
         spectra=list(spectra or ()),
         loading=loading,
+        constructions={name: (study_ds, greens_by_material(g), evaluate_context(
+            ClaimContext(study_ds, settings, variants, thresholds)))
+            for name, (study_ds, g) in (constructions or {}).items()},
     )
     return _assemble(REPORT_SECTIONS, ctx)
 

@@ -65,6 +65,9 @@ class ReportContext:
         ``results/loading.nc`` (load-unload cycles).
     rolling : xarray.Dataset or None
         ``results/rolling.nc`` (rolling study).
+    constructions : mapping
+        {construction: (study dataset, greens by material, claim results)} of the study repeated with
+        other kernel constructions (``study.compare_constructions``).
     """
 
     thresholds: Mapping[str, float] = field(default_factory=lambda: dict(THRESHOLDS))
@@ -77,6 +80,7 @@ class ReportContext:
     spectra: Sequence[xr.Dataset] = ()
     loading: xr.Dataset | None = None
     rolling: xr.Dataset | None = None
+    constructions: Mapping[str, tuple] = field(default_factory=dict)
 
 
 def greens_by_material(greens: Mapping[str, xr.Dataset] | Sequence[xr.Dataset] | None) -> dict[str, xr.Dataset]:
@@ -581,6 +585,81 @@ def stability_section(ctx: ReportContext) -> list[str]:
         "|---|---|---|",
     ]
     lines += [f"| {label} | {d * _MM:.3f} | {a:.1e} |" for label, d, a in zip(labels[past], limit[past], alternation[past])]
+    return lines + [""]
+
+
+def _construction_of(greens: Mapping[str, xr.Dataset]) -> str:
+    names = {str(ds.attrs.get("construction", "fold")) for ds in greens.values()}
+    return ", ".join(sorted(names)) or "?"
+
+
+def _kernel_rows(name: str, greens: Mapping[str, xr.Dataset], materials: Sequence[str]) -> list[str]:
+    rows = []
+    for m in materials:
+        ds = greens.get(m)
+        if ds is None or "critical_stiffness" not in ds:
+            continue
+        k = float(ds["critical_stiffness"])
+        rows.append(
+            f"| {name} | {m} | {'every spring' if not math.isfinite(k) else f'{k:.3g}'} | "
+            f"{float(ds['fidelity_magnitude']):.2%} / {float(ds['fidelity_phase']):.4f} | "
+            f"{'yes' if int(ds.attrs.get('causal_material', 1)) else 'no (not causal)'} |")
+    return rows
+
+
+def construction_section(ctx: ReportContext) -> list[str]:
+    """The study beside the same study run with other kernel constructions: each kernel's stability margin and
+    fidelity, K_sat per dynamic case and the claims."""
+    if ctx.claims is None or not ctx.constructions:
+        return []
+    study = ctx.claims.study
+    own = _construction_of(ctx.greens)
+    materials = [str(m) for m in ctx.claims.settings.materials]
+    lines = [
+        "## Kernel construction: the study beside " + ", ".join(f"`{n}`" for n in ctx.constructions),
+        "",
+        f"The study's kernels are built by `{own}` (greens.construction); the same dynamic runs were repeated "
+        f"with {', '.join(f'`{n}`' for n in ctx.constructions)} (quasi-static runs do not depend on it). "
+        "`seed` is the paper's construction: the band-limited inverse FFT of the element FRF with its negative-time "
+        "part discarded. The greens stage measures each kernel: k_crit, the stiffest element spring for which the "
+        "time march is stable on every contact set of the patch (the margin over the whole unit circle, "
+        "`tyreroad.margin`), and the largest error of the kernel's own transfer function against the element "
+        "FRF over 10 Hz - 5 kHz (relative to the excitation element's |G_0|; phase where |G| >= 0.1 |G_0|). The "
+        "stiffest default spring is the flat punch's plateau.",
+        "",
+        "| construction | material | k_crit [N/m] | fidelity (magnitude / phase [rad]) | causal material |",
+        "|---|---|---|---|---|",
+    ]
+    lines += _kernel_rows(own, ctx.greens, materials)
+    for name, (_, greens, _) in ctx.constructions.items():
+        lines += _kernel_rows(name, greens, materials)
+    lines += ["", "| case | K_sat, " + own + " [MN/m] | "
+              + " | ".join(f"K_sat, {n} [MN/m] | change" for n in ctx.constructions) + " |",
+              "|---|---|" + "---|---|" * len(ctx.constructions)]
+    labels = study["case"].values.astype(str)
+    dynamic = study["mode"].values.astype(str) == "dynamic"
+    for i in np.flatnonzero(dynamic):
+        k_own = float(study["saturated_stiffness"].values[i])
+        cells = [f"{k_own * _MN:.4f}"]
+        for other, _, _ in ctx.constructions.values():
+            j = np.flatnonzero(other["case"].values.astype(str) == labels[i])
+            if j.size == 0:
+                cells += ["-", "-"]
+                continue
+            k_other = float(other["saturated_stiffness"].values[j[0]])
+            past = ""
+            if "fs2_limit_indentation" in other and np.isfinite(other["fs2_limit_indentation"].values[j[0]]):
+                past = f" (past k_crit from {other['fs2_limit_indentation'].values[j[0]] * _MM:.3f} mm)"
+            cells += [f"{k_other * _MN:.4f}{past}", _pct(k_other / k_own - 1.0)]
+        lines.append(f"| {labels[i]} | " + " | ".join(cells) + " |")
+    lines += ["", "| # | claim | " + own + " | " + " | ".join(ctx.constructions) + " |",
+              "|---|---|---|" + "---|" * len(ctx.constructions)]
+    for n in sorted(ctx.results):
+        c = ctx.results[n]
+        others = [f"{res[n].verdict} ({res[n].measured})" if n in res else "-"
+                  for _, _, res in ({k: (a, b, {r.number: r for r in c_})
+                                     for k, (a, b, c_) in ctx.constructions.items()}).values()]
+        lines.append(f"| {n} | {c.claim} | {c.verdict} ({c.measured}) | " + " | ".join(others) + " |")
     return lines + [""]
 
 

@@ -75,6 +75,9 @@ _TARGET_OF = {
     ("accel", "material", "mode", "surface"): f"{R}/contact/{{surface}}/{{material}}/{{mode}}_{{accel}}.nc",
     ("loading", "material", "mode", "surface"): f"{R}/loading/{{surface}}/{{material}}/{{mode}}_{{loading}}.nc",
     ("material", "mode", "speed", "surface"): f"{R}/rolling/{{surface}}/{{material}}/{{mode}}_v{{speed}}.nc",
+    ("construction", "material"): f"{R}/constructions/{{construction}}/greens/{{material}}.nc",
+    ("accel", "construction", "material", "mode", "surface"):
+        f"{R}/constructions/{{construction}}/contact/{{surface}}/{{material}}/{{mode}}_{{accel}}.nc",
 }
 
 
@@ -180,6 +183,7 @@ def all_targets():
         *stiffness_spectra(),
         f"{R}/figures/fig9_stiffness_spectrum.png",
         *loading_outputs(),
+        *construction_outputs(),
     ]
 
 

@@ -37,6 +37,8 @@ rule report:
         greens=study_greens(),
         loading=loading_outputs()[:1],
         spectra=stiffness_spectra(),
+        constructions=construction_outputs(),
+        construction_greens=construction_greens(),
     output:
         md=f"{R}/report.md",
     log:

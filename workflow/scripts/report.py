@@ -18,4 +18,6 @@ pipeline.run_report(
     out_md=snakemake.output.md,
     loading_nc=snakemake.input.loading[0] if snakemake.input.loading else None,
     spectra_ncs=snakemake.input.get("spectra", []),
+    construction_ncs=snakemake.input.get("constructions", []),
+    construction_greens_ncs=snakemake.input.get("construction_greens", []),
 )
