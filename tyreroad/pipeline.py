@@ -86,26 +86,31 @@ def material_variants(
     return {key: sorted(members) for key, members in groups.items()}
 
 
-def spring_material_inputs(material_name: str, materials: Mapping[str, Any]) -> dict[str, float]:
+def spring_material_inputs(material_name: str, materials: Mapping[str, Any],
+                           springs: Mapping[str, Any] | None = None) -> dict[str, Any]:
     """The material properties the element springs depend on (and nothing else).
 
-    The springs depend on the quasi-static modulus, Poisson's ratio and the layer thickness only;
-    the workflow passes exactly these as the rule's params, so that changing, e.g., a variant's
-    density does not re-run its springs.
+    Elastic springs depend on the quasi-static modulus, Poisson's ratio and the layer thickness
+    only; the workflow passes exactly these as the rule's params, so that changing, e.g., a
+    variant's density does not re-run its springs. Viscoelastic springs (``springs.rheology: qlv``)
+    also relax with the modulus E(omega): their inputs add the resolved material preset (``preset``).
 
     Returns
     -------
     dict
-        ``quasi_static_modulus`` [Pa], ``poisson`` [-], ``thickness`` [m].
+        ``quasi_static_modulus`` [Pa], ``poisson`` [-], ``thickness`` [m] (and ``preset`` for QLV springs).
     """
     from .material import material_from_config
 
     mat = material_from_config(material_name, materials)
-    return {
+    out: dict[str, Any] = {
         "quasi_static_modulus": float(mat.quasi_static_modulus),
         "poisson": float(mat.poisson),
         "thickness": float(mat.thickness),
     }
+    if (springs or {}).get("rheology", "elastic") != "elastic":
+        out["preset"] = dict(mat.config)
+    return out
 
 
 def run_prepare_surface(name: str, spec: Mapping[str, Any], out_nc: str | Path, out_png: str | Path) -> None:
@@ -136,6 +141,14 @@ def run_element_springs(
     ds = element_springs(
         surface, model, modulus=modulus, poisson=material_inputs["poisson"], thickness=material_inputs["thickness"]
     )
+    if model.rheology == "qlv":
+        from .qlv import check_relaxed_modulus, fit_relaxation, relaxation_variables
+
+        material = _material(material_name, material_inputs["preset"])
+        check_relaxed_modulus(float(material.modulus([0.0]).real[0]), modulus, material_name)
+        data, attrs = relaxation_variables(fit_relaxation(material.modulus, modulus, name=material_name))
+        ds = ds.assign(data)
+        ds.attrs.update(attrs)
     provenance = {"springs": dict(springs_cfg), "material": {material_name: dict(material_inputs)}}
     io.write_dataset(ds, out_nc, provenance, stage="element_springs", surface=surface_name, material=material_name)
 
