@@ -285,11 +285,13 @@ def run_report(
     out_md: str | Path,
     loading_nc: str | Path | None = None,
     spectra_ncs: Sequence[str | Path] = (),
+    spring_comparison: Mapping[str, Any] | None = None,
 ) -> None:
     """``results/report.md``: the seed's claims checked against the measured numbers; given the
     stiffness-spectrum files, the section on K*(f; d0); given ``loading_nc`` (results/loading.nc),
     the hysteresis of the load-unload cycles. (The rolling section is ``results/rolling.md`` of the
-    named target ``rolling``.)"""
+    named target ``rolling``.) Given ``spring_comparison`` (config key, issue 24), the section
+    comparing this study with the elastic-springs study in ``spring_comparison['elastic_results']``."""
     from .report import build_report, write_report
     from .study import StudySettings, open_study
 
@@ -305,6 +307,12 @@ def run_report(
         spectra=[io.read_dataset(p) for p in spectra_ncs],
         loading=None if loading_nc is None else io.read_dataset(loading_nc),
     )
+    if spring_comparison:
+        from .report.spring_comparison import spring_comparison_section
+
+        lines = spring_comparison_section(study, [io.read_dataset(p) for p in spectra_ncs], settings, variants,
+                                          Path(out_md).parent, spring_comparison["elastic_results"])
+        text = text.rstrip("\n") + "\n\n" + "\n".join(lines).rstrip("\n") + "\n"
     write_report(text, out_md)
 
 
