@@ -180,3 +180,37 @@ def test_one_element_harmonic_run_against_k_star(frequency, periods):
     g_static = greens["g_static"].values.ravel()[0]
     before = np.flatnonzero(t < start)[-1]
     assert res.force[before] == pytest.approx(d0 / (1 / K_C + g_static), rel=1e-3)
+
+
+def test_report_section_reads_the_elastic_study_where_it_exists(tmp_path):
+    """The comparison section: K*(1 kHz) of both studies, rolling passes of both, and a plain statement of
+    what is missing (no elastic study.nc here)."""
+    from types import SimpleNamespace
+
+    from tyreroad.report.spring_comparison import spring_comparison_section
+
+    freq = np.array([100.0, 1000.0])
+
+    def spectrum(k_storage, k_loss, rheology=None):
+        ds = xr.Dataset({"storage_stiffness": (("preload", "frequency"), k_storage),
+                         "loss_stiffness": (("preload", "frequency"), k_loss)},
+                        coords={"preload": [1e-4], "frequency": freq},
+                        attrs={"material": "tread", "figure_preload": 1e-4})
+        if rheology:
+            ds.attrs["spring_rheology"] = rheology
+        return ds
+
+    own, elastic = tmp_path / "results-qlv", tmp_path / "results"
+    (elastic / "stiffness_spectrum" / "road").mkdir(parents=True)
+    spectrum([[1e6, 1.0e6]], [[5e4, 1e5]]).to_netcdf(elastic / "stiffness_spectrum" / "road" / "tread.nc")
+    for root, loss in ((own, 2.0), (elastic, 1.0)):
+        (root / "rolling" / "strip" / "tread").mkdir(parents=True)
+        xr.Dataset({"steady_loss_force": ((), loss), "steady_force": ((), 500.0)}).to_netcdf(
+            root / "rolling" / "strip" / "tread" / "dynamic_v20.nc")
+    study = xr.Dataset(attrs={"surface": "road"})
+    text = "\n".join(spring_comparison_section(study, [spectrum([[1e6, 1.6e6]], [[5e4, 4.2e5]], "qlv")],
+                                               SimpleNamespace(reference_material="tread"), {}, own, elastic))
+    assert "study.nc` is missing" in text
+    assert "| tread | 0.10 | 1.000 | 1.600 | 1.600 | 0.100 | 0.263 |" in text
+    assert "| rolling/strip/tread/dynamic_v20.nc | 2.000e-03 | 4.000e-03 | 2.00 | 500.0 |" in text
+    assert "This study's springs: qlv" in text
