@@ -206,9 +206,19 @@ def run_greens_figures(greens_ncs: Sequence[str | Path], out_material_png: str |
 SPRING_TABLES = ("stiffness", "force")
 
 
+#: The relaxation function of viscoelastic (QLV) springs (:mod:`tyreroad.qlv`), read with the tables.
+SPRING_RELAXATION = ("relaxation_weight", "relaxation_time")
+
+
 def _solver_inputs(surface_nc, springs_nc, greens_nc) -> tuple[xr.Dataset, xr.Dataset, xr.Dataset]:
-    """Surface, springs (only :data:`SPRING_TABLES`) and greens datasets of a solver stage."""
-    return io.read_dataset(surface_nc), io.read_dataset(springs_nc, SPRING_TABLES), io.read_dataset(greens_nc)
+    """Surface, springs (only :data:`SPRING_TABLES`, with :data:`SPRING_RELAXATION` for QLV springs) and
+    greens datasets of a solver stage."""
+    qlv = False
+    if Path(springs_nc).is_file():  # (a missing file: read_dataset names it)
+        with xr.open_dataset(springs_nc, engine="netcdf4") as header:  # attributes only
+            qlv = header.attrs.get("spring_rheology", "elastic") == "qlv"
+    springs = io.read_dataset(springs_nc, SPRING_TABLES + (SPRING_RELAXATION if qlv else ()))
+    return io.read_dataset(surface_nc), springs, io.read_dataset(greens_nc)
 
 
 def run_contact(
