@@ -54,6 +54,20 @@ def _claims(study, settings, variants):
     return {r.number: r for r in evaluate_claims(study, settings, variants)}
 
 
+#: fs/2 alternation (relative to the force) above which a case is marked in the K_sat table.
+ALTERNATION_FLAG = 1e-3
+
+
+def _alternation(study: xr.Dataset) -> np.ndarray:
+    if "fs2_alternation" not in study:
+        return np.full(study.sizes["case"], np.nan)
+    return np.asarray(study["fs2_alternation"].values, dtype=float)
+
+
+def _fmt_alt(value) -> str:
+    return "—" if value is None or not np.isfinite(value) else f"{value:.1e}"
+
+
 def _fmt_eta(k: complex | None) -> str:
     return "—" if k is None else f"{k.imag / k.real:.3f}"
 
@@ -95,12 +109,19 @@ def spring_comparison_section(study: xr.Dataset, spectra: Sequence[xr.Dataset], 
         name = str(ds.attrs.get("material", ""))
         springs = _read(own_dir / "springs" / surface / f"{name}.nc")
         if springs is not None and "relaxation_fit_error" in springs.attrs:
-            r0 = float(springs.attrs["relaxed_ratio"]) + float(springs["relaxation_weight"].sum())
+            from ..qlv import RelaxationFunction
+
+            rel = RelaxationFunction(float(springs.attrs["relaxed_ratio"]), springs["relaxation_weight"].values,
+                                     springs["relaxation_time"].values)
+            fs = float(ds.attrs.get("sample_rate", np.nan))
+            a = rel.step_coefficients(1.0 / fs)[0] if np.isfinite(fs) else np.nan
             fits.append(f"{name}: {float(springs.attrs['relaxation_fit_error']):.1e} "
-                        f"({springs.sizes['relaxation_term']} terms, R(0) = {r0:.2f})")
+                        f"({springs.sizes['relaxation_term']} terms, R(0) = {rel.relaxation(0.0):.2f}, "
+                        f"a = {a:.2f} at fs = {fs:g} Hz)")
     if fits:
         lines.append("Relaxation fit, largest relative error of E(f)/E_qs over 1e-7 Hz … 1 MHz (R(0): the "
-                     "fitted short-time ratio): " + "; ".join(fits) + ". The loss-scaled variants are not causal: "
+                     "fitted short-time ratio; a: the spring's stiffness factor within one march step, "
+                     "F = a F_el(ζ) + history): " + "; ".join(fits) + ". The loss-scaled variants are not causal: "
                      "their springs relax with the nearest causal relaxation (as their layer tail creeps with the "
                      "nearest causal creep); K*(f) uses their exact E(f).")
         lines.append("")
@@ -111,14 +132,31 @@ def spring_comparison_section(study: xr.Dataset, spectra: Sequence[xr.Dataset], 
                   "(`snakemake -j2`) for the comparison.", ""]
     else:
         lines += ["### K_sat of every case", "",
-                  "| case | K_sat elastic [MN/m] | K_sat QLV [MN/m] | change |", "|---|---|---|---|"]
-        el = dict(zip(elastic_study["case"].values.tolist(), elastic_study["saturated_stiffness"].values))
-        for case, k in zip(study["case"].values.tolist(), study["saturated_stiffness"].values):
+                  "The fs/2 alternation is the stability record of each run (fourth difference of the force / 16 "
+                  "over the run's last fifth, relative to the force; `tyreroad.stability`). QLV springs are "
+                  "stiffer at the march's time step (by a = R_inf + Σ r_k β_k, listed with the relaxation fit), "
+                  "so they pass the kernel's fs/2 limit k_crit earlier and the period-2 alternation grows faster. "
+                  f"Cases marked † have an alternation above {ALTERNATION_FLAG:g} of the force: their K(d), K_sat and "
+                  "the claims read from them carry the march's instability, not the springs' physics.", "",
+                  "| case | K_sat elastic [MN/m] | K_sat QLV [MN/m] | change | fs/2 alternation elastic | "
+                  "fs/2 alternation QLV |", "|---|---|---|---|---|---|"]
+        cases_e = elastic_study["case"].values.tolist()
+        el = dict(zip(cases_e, elastic_study["saturated_stiffness"].values))
+        alt_e = dict(zip(cases_e, _alternation(elastic_study)))
+        flagged = []
+        for case, k, alt in zip(study["case"].values.tolist(), study["saturated_stiffness"].values,
+                                _alternation(study)):
             ke = el.get(case)
             cell = "—" if ke is None else f"{ke / 1e6:.4f}"
             change = "—" if ke is None else f"{100 * (k / ke - 1):+.2f} %"
-            lines.append(f"| {case} | {cell} | {k / 1e6:.4f} | {change} |")
+            mark = " †" if alt > ALTERNATION_FLAG else ""
+            if mark:
+                flagged.append(case)
+            lines.append(f"| {case}{mark} | {cell} | {k / 1e6:.4f} | {change} | {_fmt_alt(alt_e.get(case))} | "
+                         f"{_fmt_alt(alt)} |")
         lines.append("")
+        if flagged:
+            lines += [f"{len(flagged)} QLV case(s) past the alternation flag: {', '.join(flagged)}.", ""]
         try:
             own, other = _claims(study, settings, variants), _claims(elastic_study, settings, variants)
             lines += ["### The claims", "", "| # | verdict, elastic springs | verdict, QLV springs | measured, QLV |",
