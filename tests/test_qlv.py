@@ -212,5 +212,5 @@ def test_report_section_reads_the_elastic_study_where_it_exists(tmp_path):
                                                SimpleNamespace(reference_material="tread"), {}, own, elastic))
     assert "study.nc` is missing" in text
     assert "| tread | 0.10 | 1.000 | 1.600 | 1.600 | 0.100 | 0.263 |" in text
-    assert "| rolling/strip/tread/dynamic_v20.nc | 2.000e-03 | 4.000e-03 | 2.00 | 500.0 |" in text
+    assert "| rolling/strip/tread/dynamic_v20.nc | 2.000e-03 | 4.000e-03 | 2.00 | 500.0 | — | — |" in text
     assert "This study's springs: qlv" in text

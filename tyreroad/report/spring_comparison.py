@@ -213,15 +213,25 @@ def spring_comparison_section(study: xr.Dataset, spectra: Sequence[xr.Dataset], 
                   "`snakemake -j2 rolling --configfile config/config.yaml config/springs-qlv.yaml`, or one pass: its "
                   "file `results-qlv/rolling/<strip>/<material>/dynamic_v<speed>.nc`).", ""]
     else:
-        lines += ["Coefficient = steady P/v over the steady mean force (as in rolling.md), at the wheel load.", "",
-                  "| pass | coefficient elastic | coefficient QLV | ratio | steady force QLV [N] |",
-                  "|---|---|---|---|---|"]
+        lines += ["Coefficient = steady P/v over the steady mean force (as in rolling.md), at the wheel load; fs/2 "
+                  "alternation of the pass as in the K_sat table († above "
+                  f"{ALTERNATION_FLAG:g}: the pass chatters and its coefficient is the march's, not the springs').", "",
+                  "| pass | coefficient elastic | coefficient QLV | ratio | steady force QLV [N] | "
+                  "fs/2 alternation elastic | fs/2 alternation QLV |", "|---|---|---|---|---|---|---|"]
+
+        def alt(ds):
+            return float(ds["fs2_alternation"]) if ds is not None and "fs2_alternation" in ds else None
+
         for rel, own, other in pairs:
             c_q = float(own["steady_loss_force"]) / float(own["steady_force"])
+            a_q = alt(own)
+            mark = " †" if a_q is not None and a_q > ALTERNATION_FLAG else ""
             if other is None:
-                lines.append(f"| {rel} | (missing) | {c_q:.3e} | — | {float(own['steady_force']):.1f} |")
+                lines.append(f"| {rel}{mark} | (missing) | {c_q:.3e} | — | {float(own['steady_force']):.1f} | — | "
+                             f"{_fmt_alt(a_q)} |")
                 continue
             c_e = float(other["steady_loss_force"]) / float(other["steady_force"])
-            lines.append(f"| {rel} | {c_e:.3e} | {c_q:.3e} | {c_q / c_e:.2f} | {float(own['steady_force']):.1f} |")
+            lines.append(f"| {rel}{mark} | {c_e:.3e} | {c_q:.3e} | {c_q / c_e:.2f} | {float(own['steady_force']):.1f} | "
+                         f"{_fmt_alt(alt(other))} | {_fmt_alt(a_q)} |")
         lines.append("")
     return lines
