@@ -214,3 +214,27 @@ def test_report_section_reads_the_elastic_study_where_it_exists(tmp_path):
     assert "| tread | 0.10 | 1.000 | 1.600 | 1.600 | 0.100 | 0.263 |" in text
     assert "| rolling/strip/tread/dynamic_v20.nc | 2.000e-03 | 4.000e-03 | 2.00 | 500.0 | — | — |" in text
     assert "This study's springs: qlv" in text
+
+
+def test_a_spring_that_does_not_relax_marches_as_the_elastic_table():
+    """R(t) = 1 (no relaxation terms): the QLV march gives the elastic run to the last bit, on a rough 3 x 3
+    patch through contact, hold and separation (so the wrapper, the march hooks and the clip change nothing)."""
+    mat = material(MAXWELL)
+    greens = greens_dataset(mat, (3, 3), C, FS, 64, 4096)
+    kernel = LayerKernel.from_greens(greens, "dynamic")
+    rng = np.random.default_rng(2)
+    z1 = -rng.uniform(0, 2e-5, size=(3, 3))
+    step, n = 1e-6, 201
+    k = np.linspace(1e4, 5e4, n)[None, :] * rng.uniform(0.5, 1.5, size=(9, 1))
+    f = np.zeros_like(k)
+    np.cumsum(0.5 * step * (k[:, 1:] + k[:, :-1]), axis=1, out=f[:, 1:])
+    table = SpringTable.checked(k, f, step, 9)
+    t = np.arange(300) / FS
+    d = 4e-5 * np.sin(np.pi * t / t[-1])
+    settings = SolverSettings(method="dense")
+    elastic = run_loading_path(IndentationPath(z1, d, t), table, kernel, settings)
+    still = ViscoelasticSprings(table, RelaxationFunction(1.0, np.zeros(0), np.zeros(0)), mat.quasi_static_modulus)
+    qlv_run = run_loading_path(IndentationPath(z1, d, t), still, kernel, settings)
+    assert elastic.contact_count.max() == 9 and elastic.contact_count[-1] == 0
+    assert np.array_equal(qlv_run.element_force, elastic.element_force)
+    assert np.array_equal(qlv_run.compression, elastic.compression)
