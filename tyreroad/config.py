@@ -454,8 +454,11 @@ def _check_qlv_springs(config: Mapping[str, Any]) -> None:
     model = SpringModel.from_config(springs)
     for name in config.get("materials", {}):
         material = material_from_config(name, config["materials"])
-        check_relaxed_modulus(float(material.modulus([0.0]).real[0]),
-                              resolve_spring_modulus(model, material.quasi_static_modulus), name)
+        try:
+            check_relaxed_modulus(float(material.modulus([0.0]).real[0]),
+                                  resolve_spring_modulus(model, material.quasi_static_modulus), name)
+        except ValueError as exc:
+            raise _wrap(exc, "springs") from None
 
 
 def surface_plan(name: str, spec: Mapping[str, Any], base_dir: str | Path = ".") -> dict[str, Any]:
