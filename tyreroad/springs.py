@@ -21,6 +21,10 @@ of the element's samples z_p (dx = scan step). Models (config ``springs.model``)
 ``linear``
     Constant stiffness (classic bedding spring) for zeta > 0.
 
+Time dependence (config ``springs.rheology``): ``elastic`` (default) uses these tables at every rate;
+``qlv`` lets the force relax with the tread's modulus, F = int R(t - tau) dF(zeta(tau)), R = E(t) / E_s
+(quasi-linear viscoelasticity, :mod:`tyreroad.qlv`; the tables stay the elastic F and k).
+
 The interaction between the punches of one element and between elements is not included in k:
 it is carried by the layer's Green's functions in the contact solver.
 

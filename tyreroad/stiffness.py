@@ -22,6 +22,12 @@ by 1^T K dzeta, so over the contact set C (the elements with k_e > 0)
   before a small harmonic oscillation about d0 sees this state; at 10 Hz the fractional tread is
   still about 60 % stiffer than its relaxed modulus, so K*(10 Hz) is well above the tangent.
 
+* **Viscoelastic (QLV) springs** (``springs.rheology: qlv``, :mod:`tyreroad.qlv`): by the correspondence
+  principle each spring is k_e(f) = k_e(zeta_e) E(f) / E_qs (the material's exact E(f)); K* is solved as
+  c 1^T [c G_C + diag(1/k_e)]^-1 1 with c = E(f) / E_qs, the same value with real sqrt(k_e). The relaxed
+  preload states are the elastic ones (a relaxed QLV spring is its table); the transient ones march the
+  QLV springs.
+
 Both are solved in the symmetric form A y = s, A = I + S G S, S = diag(sqrt(k_e)), K = s^T y
 (unconjugated): A has eigenvalues >= 1 in the static case and stays well conditioned when an
 element has just touched (k_e -> 0), where the form with 1/k_e would not. Two solvers, over the one
