@@ -238,3 +238,30 @@ def test_a_spring_that_does_not_relax_marches_as_the_elastic_table():
     assert elastic.contact_count.max() == 9 and elastic.contact_count[-1] == 0
     assert np.array_equal(qlv_run.element_force, elastic.element_force)
     assert np.array_equal(qlv_run.compression, elastic.compression)
+
+
+@pytest.mark.parametrize("frequency, periods", [(1000.0, 10), (5000.0, 20)])
+def test_patch_harmonic_run_against_k_star(frequency, periods):
+    """The 6 x 6 rough patch of tests/test_stiffness.py (Maxwell tread, punch springs) with QLV springs: a harmonic
+    run about the relaxed state at 0.1 mm against K* with k_e(f) = k_e E(f)/E_qs, within 1 % and 0.01 rad."""
+    import test_stiffness as S
+
+    rng = np.random.default_rng(5)
+    shape = (6, 6)
+    mat = S.material(S.MAXWELL, "maxwell")
+    z1 = S.rough_z1(*shape, rng)
+    springs = qlv(mat, S.punch_springs(36, rng))
+    greens = greens_dataset(mat, shape, C, FS, 256, 4096)
+    g_static = greens["g_static"].transpose("dx", "dy").values
+    settings = SolverSettings(quasistatic_step=1e-5, method="dense")
+    spec = SpectrumSettings(preloads=(1e-4,), n_frequencies=10, report_frequencies=(frequency,))
+    ds = stiffness_spectrum(z1, springs, LayerKernel.quasistatic(g_static), ElementFRF(mat, C), mat, FS, spec, settings)
+    expected = complex(S.k_star(ds.sel(frequency=frequency))[0])
+    hold, speed = 5e-3, 0.1
+    preset = LoadingPreset("h", {"kind": "harmonic", "preload": 1e-4, "preload_speed": speed, "relax_time": hold,
+                                 "amplitude": 1e-6, "frequency": frequency, "periods": periods})
+    t, d, _ = preset.path("dynamic", FS, settings.quasistatic_step)
+    res = run_loading_path(IndentationPath(z1, d, t), springs, LayerKernel.from_greens(greens, "dynamic"), settings)
+    measured = harmonic_stiffness(res, frequency, 1e-4 / speed + hold + 2 / frequency)
+    assert abs(abs(measured) / abs(expected) - 1) < 0.01
+    assert abs(np.angle(measured / expected)) < 0.01
