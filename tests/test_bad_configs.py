@@ -103,6 +103,8 @@ CASES = [
     ("spectral-cutoff", "surfaces:\n  spec: {generator: spectral, short_cutoff: 0.2, patch_elements: [6, 6]}\n",
      None, "surfaces.spec.short_cutoff"),
     ("table-precision", "springs:\n  table_precision: float16\n", None, "springs.table_precision"),
+    ("springs-rheology", "springs:\n  rheology: visco\n", None, "springs.rheology"),
+    ("qlv-modulus", "springs:\n  rheology: qlv\n  modulus: 3.0e+7\n", None, "springs.rheology"),
 ]
 
 #: The first N_SNAKEMAKE cases also run through a real `snakemake -n`.

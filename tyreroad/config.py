@@ -446,6 +446,25 @@ def _check_package_settings(config: Mapping[str, Any]) -> None:
             material_from_config(name, config["materials"])
         except (ValueError, KeyError, TypeError) as exc:
             raise _wrap(exc, f"materials.{name}") from None
+    _check_qlv_springs(config)
+
+
+def _check_qlv_springs(config: Mapping[str, Any]) -> None:
+    """QLV springs (springs.rheology: qlv) need the springs' modulus to be every material's E(0)."""
+    springs = config.get("springs", {}) or {}
+    if springs.get("rheology", "elastic") != "qlv":
+        return
+    from .qlv import check_relaxed_modulus
+    from .springs import resolve_spring_modulus
+
+    model = SpringModel.from_config(springs)
+    for name in config.get("materials", {}):
+        material = material_from_config(name, config["materials"])
+        try:
+            check_relaxed_modulus(float(material.modulus([0.0]).real[0]),
+                                  resolve_spring_modulus(model, material.quasi_static_modulus), name)
+        except ValueError as exc:
+            raise _wrap(exc, "springs") from None
 
 
 def surface_plan(name: str, spec: Mapping[str, Any], base_dir: str | Path = ".") -> dict[str, Any]:

@@ -57,6 +57,7 @@ from .loading import IndentationPath, Loading, LoadingPreset, constant_accelerat
 from .newton import StepConvergenceError, Substrate, solve_step
 from .solver import SolverSettings
 from .springs import SpringTable
+from .qlv import springs_for_run
 from .stability import StabilityRecord, stability_record
 
 logger = logging.getLogger(__name__)
@@ -262,6 +263,10 @@ def march(
     b_prev = zeta.copy()
     report_every = max(1, n_steps // 10)
     tangent = None
+    # springs with a force history (QLV, tyreroad.qlv.MarchSprings) start at rest and commit each step
+    start, commit = getattr(springs, "start", None), getattr(springs, "commit", None)
+    if start is not None:
+        start()
     for n in range(n_steps):
         h = history.displacement(n)
         b = loading.free_compression(n) - h
@@ -272,6 +277,8 @@ def march(
             raise ContactConvergenceError(f"contact step {n} ({loading.describe(n)}): {err}") from err
         b_prev, zeta = b, step.zeta
         history.record(n, step.force)
+        if commit is not None:
+            commit(step.zeta)
         w = h + substrate.instant(step.force)
         tangent = substrate.tangent(step.stiffness) if recorder.wants_tangent else None
         recorder.store(n, step, w, tangent)
@@ -340,6 +347,9 @@ def run_loading_path(loading: Loading, springs, kernel: LayerKernel, settings: S
     if not isinstance(kernel, LayerKernel):
         raise TypeError(f"kernel: expected a LayerKernel (tyreroad.kernel), got {type(kernel).__name__}")
     _set_threads(threads)
+    for_kernel = getattr(springs, "for_kernel", None)
+    if for_kernel is not None:  # viscoelastic (QLV) springs: their march form at the kernel's time step
+        springs = for_kernel(kernel)
     if not kernel.static:
         kernel.check_springs(_max_spring_stiffness(springs), settings.stability)
     substrate, history = kernel.collaborators(loading.shape, settings, threads, loading.n_steps)
@@ -435,7 +445,8 @@ def _stage_run(surface: xr.Dataset, springs: xr.Dataset, greens: xr.Dataset, mat
     z1 = surface["z1"].transpose("ex", "ey").values
     table = SpringTable.from_dataset(springs)
     loading = make_loading(z1, kernel)
-    springs_table = SpringTable.checked(table.stiffness, table.force, table.zeta_step, z1.size)
+    springs_table = springs_for_run(springs, SpringTable.checked(table.stiffness, table.force, table.zeta_step,
+                                                                 z1.size))
     result = run_loading_path(loading, springs_table, kernel, settings, threads)
     stability = None if kernel.static else stability_record(kernel, loading.shape, result.max_spring_stiffness,
                                                             result.force, threads)

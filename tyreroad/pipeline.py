@@ -86,26 +86,31 @@ def material_variants(
     return {key: sorted(members) for key, members in groups.items()}
 
 
-def spring_material_inputs(material_name: str, materials: Mapping[str, Any]) -> dict[str, float]:
+def spring_material_inputs(material_name: str, materials: Mapping[str, Any],
+                           springs: Mapping[str, Any] | None = None) -> dict[str, Any]:
     """The material properties the element springs depend on (and nothing else).
 
-    The springs depend on the quasi-static modulus, Poisson's ratio and the layer thickness only;
-    the workflow passes exactly these as the rule's params, so that changing, e.g., a variant's
-    density does not re-run its springs.
+    Elastic springs depend on the quasi-static modulus, Poisson's ratio and the layer thickness
+    only; the workflow passes exactly these as the rule's params, so that changing, e.g., a
+    variant's density does not re-run its springs. Viscoelastic springs (``springs.rheology: qlv``)
+    also relax with the modulus E(omega): their inputs add the resolved material preset (``preset``).
 
     Returns
     -------
     dict
-        ``quasi_static_modulus`` [Pa], ``poisson`` [-], ``thickness`` [m].
+        ``quasi_static_modulus`` [Pa], ``poisson`` [-], ``thickness`` [m] (and ``preset`` for QLV springs).
     """
     from .material import material_from_config
 
     mat = material_from_config(material_name, materials)
-    return {
+    out: dict[str, Any] = {
         "quasi_static_modulus": float(mat.quasi_static_modulus),
         "poisson": float(mat.poisson),
         "thickness": float(mat.thickness),
     }
+    if (springs or {}).get("rheology", "elastic") != "elastic":
+        out["preset"] = dict(mat.config)
+    return out
 
 
 def run_prepare_surface(name: str, spec: Mapping[str, Any], out_nc: str | Path, out_png: str | Path) -> None:
@@ -136,6 +141,14 @@ def run_element_springs(
     ds = element_springs(
         surface, model, modulus=modulus, poisson=material_inputs["poisson"], thickness=material_inputs["thickness"]
     )
+    if model.rheology == "qlv":
+        from .qlv import check_relaxed_modulus, fit_relaxation, relaxation_variables
+
+        material = _material(material_name, material_inputs["preset"])
+        check_relaxed_modulus(float(material.modulus([0.0]).real[0]), modulus, material_name)
+        data, attrs = relaxation_variables(fit_relaxation(material.modulus, modulus, name=material_name))
+        ds = ds.assign(data)
+        ds.attrs.update(attrs)
     provenance = {"springs": dict(springs_cfg), "material": {material_name: dict(material_inputs)}}
     io.write_dataset(ds, out_nc, provenance, stage="element_springs", surface=surface_name, material=material_name)
 
@@ -228,9 +241,19 @@ def run_greens_figures(greens_ncs: Sequence[str | Path], out_material_png: str |
 SPRING_TABLES = ("stiffness", "force")
 
 
+#: The relaxation function of viscoelastic (QLV) springs (:mod:`tyreroad.qlv`), read with the tables.
+SPRING_RELAXATION = ("relaxation_weight", "relaxation_time")
+
+
 def _solver_inputs(surface_nc, springs_nc, greens_nc) -> tuple[xr.Dataset, xr.Dataset, xr.Dataset]:
-    """Surface, springs (only :data:`SPRING_TABLES`) and greens datasets of a solver stage."""
-    return io.read_dataset(surface_nc), io.read_dataset(springs_nc, SPRING_TABLES), io.read_dataset(greens_nc)
+    """Surface, springs (only :data:`SPRING_TABLES`, with :data:`SPRING_RELAXATION` for QLV springs) and
+    greens datasets of a solver stage."""
+    qlv = False
+    if Path(springs_nc).is_file():  # (a missing file: read_dataset names it)
+        with xr.open_dataset(springs_nc, engine="netcdf4") as header:  # attributes only
+            qlv = header.attrs.get("spring_rheology", "elastic") == "qlv"
+    springs = io.read_dataset(springs_nc, SPRING_TABLES + (SPRING_RELAXATION if qlv else ()))
+    return io.read_dataset(surface_nc), springs, io.read_dataset(greens_nc)
 
 
 def run_contact(
@@ -309,12 +332,15 @@ def run_report(
     spectra_ncs: Sequence[str | Path] = (),
     construction_ncs: Sequence[str | Path] = (),
     construction_greens_ncs: Sequence[str | Path] = (),
+    spring_comparison: Mapping[str, Any] | None = None,
 ) -> None:
     """``results/report.md``: the seed's claims checked against the measured numbers; given the
     stiffness-spectrum files, the section on K*(f; d0); given ``loading_nc`` (results/loading.nc),
     the hysteresis of the load-unload cycles; given comparison studies of other kernel constructions
     (``results/constructions/<name>/study.nc`` and their greens files), the study beside them. (The
-    rolling section is ``results/rolling.md`` of the named target ``rolling``.)"""
+    rolling section is ``results/rolling.md`` of the named target ``rolling``.) Given
+    ``spring_comparison`` (config key, issue 24), the section comparing this study with the
+    elastic-springs study in ``spring_comparison['elastic_results']``."""
     from .report import build_report, write_report
     from .study import StudySettings, open_study
 
@@ -331,6 +357,12 @@ def run_report(
         loading=None if loading_nc is None else io.read_dataset(loading_nc),
         constructions=_construction_studies(construction_ncs, construction_greens_ncs),
     )
+    if spring_comparison:
+        from .report.spring_comparison import spring_comparison_section
+
+        lines = spring_comparison_section(study, [io.read_dataset(p) for p in spectra_ncs], settings, variants,
+                                          Path(out_md).parent, spring_comparison["elastic_results"])
+        text = text.rstrip("\n") + "\n\n" + "\n".join(lines).rstrip("\n") + "\n"
     write_report(text, out_md)
 
 

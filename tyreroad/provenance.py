@@ -26,7 +26,7 @@ __all__ = ["STAGE_MODULES", "stage_modules", "stage_files", "source_hash"]
 #: A new stage, or a stage function that imports a new module, extends this map.
 STAGE_MODULES: dict[str, tuple[str, ...]] = {
     "prepare_surface": ("log", "pipeline", "surface", "plots.surface"),
-    "element_springs": ("log", "pipeline", "springs"),
+    "element_springs": ("log", "pipeline", "springs", "qlv", "material"),
     "springs_figure": ("log", "pipeline", "plots.springs"),
     "greens": ("log", "pipeline", "greens", "material", "fidelity", "margin"),
     "greens_figures": ("log", "pipeline", "plots.greens"),

@@ -21,6 +21,10 @@ of the element's samples z_p (dx = scan step). Models (config ``springs.model``)
 ``linear``
     Constant stiffness (classic bedding spring) for zeta > 0.
 
+Time dependence (config ``springs.rheology``): ``elastic`` (default) uses these tables at every rate;
+``qlv`` lets the force relax with the tread's modulus, F = int R(t - tau) dF(zeta(tau)), R = E(t) / E_s
+(quasi-linear viscoelasticity, :mod:`tyreroad.qlv`; the tables stay the elastic F and k).
+
 The interaction between the punches of one element and between elements is not included in k:
 it is carried by the layer's Green's functions in the contact solver.
 
@@ -105,6 +109,7 @@ __all__ = [
     "evaluate",
     "linear_tables",
     "TABLE_PRECISIONS",
+    "SPRING_RHEOLOGIES",
     "ANCHOR_BLOCK",
 ]
 
@@ -135,7 +140,10 @@ _DEFAULTS: dict[str, Any] = {
     "modulus": "quasi_static",
     "linear_stiffness": 1.0e5,
     "table_precision": "float64",
+    "rheology": "elastic",
 }
+#: Values of ``springs.rheology`` (the springs' time dependence; :mod:`tyreroad.qlv`).
+SPRING_RHEOLOGIES = ("elastic", "qlv")
 
 
 # --------------------------------------------------------------------------------------------
@@ -274,6 +282,10 @@ class SpringModel:
     table_precision : str
         ``'float64'`` (default) or ``'float32'``: the precision of the stiffness tables (module
         docstring: float32 rounds k to 6e-8 relative and keeps F its exact integral).
+    rheology : str
+        ``'elastic'`` (default: the tables' modulus at every frequency, the seed's assumption) or
+        ``'qlv'``: the spring force relaxes with the tread's own modulus, F = int R(t - tau) dF_el,
+        R = E(t) / E_s (quasi-linear viscoelasticity, :mod:`tyreroad.qlv`).
     """
 
     model: str = _DEFAULTS["model"]
@@ -282,9 +294,16 @@ class SpringModel:
     modulus: str | float = _DEFAULTS["modulus"]
     linear_stiffness: float = _DEFAULTS["linear_stiffness"]
     table_precision: str = _DEFAULTS["table_precision"]
+    rheology: str = _DEFAULTS["rheology"]
 
     def __post_init__(self) -> None:
         s = "springs"
+        if not isinstance(self.rheology, str) or self.rheology not in SPRING_RHEOLOGIES:
+            raise ValueError(
+                f"{s}.rheology = {self.rheology!r}: expected one of {', '.join(SPRING_RHEOLOGIES)} (elastic: the "
+                "springs keep their table modulus at every frequency; qlv: the spring force relaxes with the "
+                "tread's modulus)"
+            )
         if self.model not in SPRING_MODELS:
             raise ValueError(f"{s}.model must be one of {', '.join(SPRING_MODELS)}; got {self.model!r}")
         if not isinstance(self.table_precision, str) or self.table_precision not in TABLE_PRECISIONS:

@@ -22,6 +22,12 @@ by 1^T K dzeta, so over the contact set C (the elements with k_e > 0)
   before a small harmonic oscillation about d0 sees this state; at 10 Hz the fractional tread is
   still about 60 % stiffer than its relaxed modulus, so K*(10 Hz) is well above the tangent.
 
+* **Viscoelastic (QLV) springs** (``springs.rheology: qlv``, :mod:`tyreroad.qlv`): by the correspondence
+  principle each spring is k_e(f) = k_e(zeta_e) E(f) / E_qs (the material's exact E(f)); K* is solved as
+  c 1^T [c G_C + diag(1/k_e)]^-1 1 with c = E(f) / E_qs, the same value with real sqrt(k_e). The relaxed
+  preload states are the elastic ones (a relaxed QLV spring is its table); the transient ones march the
+  QLV springs.
+
 Both are solved in the symmetric form A y = s, A = I + S G S, S = diag(sqrt(k_e)), K = s^T y
 (unconjugated): A has eigenvalues >= 1 in the static case and stays well conditioned when an
 element has just touched (k_e -> 0), where the form with 1/k_e would not. Two solvers, over the one
@@ -66,10 +72,12 @@ import numpy as np
 import xarray as xr
 
 from . import checks
-from .contact import PreloadStates, preload_states, solve_path
+from .contact import PreloadStates, preload_states, run_loading_path, solve_path
 from .greens import ElementFRF
 from .influence import contact_set_solve, contact_set_stiffness_krylov
 from .kernel import LayerKernel
+from .loading import IndentationPath
+from .qlv import springs_for_run
 from .solver import SolverSettings
 from .springs import SpringTable
 
@@ -259,8 +267,12 @@ def transient_states(z1, springs, layer: LayerKernel, preloads, speed: float, se
     for d0 in pre:
         n = max(2, math.ceil(d0 * layer.sample_rate / v * (1.0 - 1e-12)))
         time_n = np.arange(n + 1) / layer.sample_rate
-        result = solve_path(z1, springs.stiffness, springs.force, springs.zeta_step, layer, d0 * time_n / time_n[-1],
-                            settings, time=time_n, threads=threads)
+        if getattr(springs, "rheology", "elastic") == "qlv":  # the march's own QLV springs (tyreroad.qlv)
+            result = run_loading_path(IndentationPath(z1, d0 * time_n / time_n[-1], time_n), springs, layer, settings,
+                                      threads)
+        else:
+            result = solve_path(z1, springs.stiffness, springs.force, springs.zeta_step, layer,
+                                d0 * time_n / time_n[-1], settings, time=time_n, threads=threads)
         zeta.append(result.compression[-1])
         force.append(result.force[-1])
         count.append(result.contact_count[-1])
@@ -273,8 +285,19 @@ def transient_states(z1, springs, layer: LayerKernel, preloads, speed: float, se
                          contact_count=np.asarray(count))
 
 
-def _contact_set_spectrum(states: PreloadStates, influences, method: str, spectrum: "SpectrumSettings"):
-    """K* of every state and influence operator: values (P, F) complex, Krylov iterations (P, F)."""
+def _contact_set_spectrum(states: PreloadStates, influences, method: str, spectrum: "SpectrumSettings",
+                          factors=None):
+    """K* of every state and influence operator: values (P, F) complex, Krylov iterations (P, F).
+
+    ``factors`` c_j (one per operator, QLV springs): spring stiffnesses c_j k_e, solved as
+    K = c 1^T [c G + diag(1/k_e)]^-1 1 (the same as with G and diag(1/(c k_e))) so that the solvers'
+    sqrt(k_e) stays real.
+    """
+    if factors is not None:
+        factors = np.asarray(factors, dtype=complex)
+        influences = [_ScaledInfluence(op, c) for op, c in zip(influences, factors)]
+        values, iterations = _contact_set_spectrum(states, influences, method, spectrum)
+        return values * factors[None, :], iterations
     n_p, n_f = states.preload.size, len(influences)
     values = np.zeros((n_p, n_f), dtype=complex)
     iterations = np.zeros((n_p, n_f), dtype=np.int64)
@@ -299,6 +322,21 @@ def _contact_set_spectrum(states: PreloadStates, influences, method: str, spectr
                 op, states.spring_stiffness[p], op.g_self, spectrum.krylov_tolerance, spectrum.krylov_max_iterations,
                 start)
     return values, iterations
+
+
+class _ScaledInfluence:
+    """c G of an influence operator (``block``, ``g_self`` and G v scaled by the complex factor c)."""
+
+    def __init__(self, op, factor: complex):
+        self.op = op
+        self.factor = complex(factor)
+        self.g_self = self.factor * op.g_self
+
+    def block(self, active):
+        return self.factor * self.op.block(active)
+
+    def __call__(self, v):
+        return self.factor * self.op(v)
 
 
 # --------------------------------------------------------------------------------------------
@@ -370,11 +408,15 @@ def stiffness_spectrum(
     influences = response.frequency_influences(np.concatenate([[0.0], freq]), shape, threads)
     t_frf = time.perf_counter() - t0 - t_states
     n_p = states.preload.size
-    values, iterations = _contact_set_spectrum(states, influences, method, spectrum)
+    # QLV springs (tyreroad.qlv): k_e(f) = k_e E(f) / E_s, the correspondence principle; elastic: None
+    qlv = getattr(springs, "rheology", "elastic") == "qlv"
+    factors = springs.frequency_factor(material, np.concatenate([[0.0], freq])) if qlv else None
+    values, iterations = _contact_set_spectrum(states, influences, method, spectrum, factors)
     transient = None
     if layer is not None:
         moving = transient_states(z1, springs, layer, spectrum.preloads, spectrum.transient_speed, settings, threads)
-        transient = (moving, _contact_set_spectrum(moving, influences[1:], method, spectrum)[0])
+        transient = (moving, _contact_set_spectrum(moving, influences[1:], method, spectrum,
+                                                   None if factors is None else factors[1:])[0])
     k_relaxed = values[:, 0].real
     k_star = values[:, 1:]
     elapsed = time.perf_counter() - t0
@@ -400,6 +442,9 @@ def stiffness_spectrum(
                   sample_rate, e0, e_qs)
     if transient is not None:
         _add_transient(ds, *transient, n_elem, spectrum.transient_speed)
+    if qlv:
+        ds.attrs["spring_rheology"] = "qlv"
+        ds.attrs["spring_formula"] = "QLV springs: k_e(f) = k_e(zeta_e) E(f) / E_s (correspondence principle)"
     ds.attrs["report_frequencies"] = np.asarray(spectrum.report_frequencies, dtype=float)
     ds.attrs["figure_preload"] = float(spectrum.figure_preload)
     return ds
@@ -478,7 +523,7 @@ def spectrum_from_datasets(surface: xr.Dataset, springs: xr.Dataset, greens: xr.
         raise ValueError("greens dataset: no element_size attribute")
     relaxed.check_element_size(surface.attrs.get("element_size"))
     z1 = surface["z1"].transpose("ex", "ey").values
-    table = SpringTable.from_dataset(springs)
+    table = springs_for_run(springs, SpringTable.from_dataset(springs))
     return stiffness_spectrum(z1, table, relaxed, ElementFRF(material, relaxed.element_size), material,
                               relaxed.sample_rate, spectrum, settings, threads, method,
                               layer=LayerKernel.from_greens(greens, "dynamic", material))

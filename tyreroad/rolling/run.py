@@ -16,6 +16,7 @@ from scipy.optimize import brentq
 from .. import checks
 from ..contact import MODES, run_loading_path
 from ..kernel import LayerKernel
+from ..qlv import springs_for_run
 from ..solver import SolverSettings
 from ..springs import SpringTable
 from ..stability import stability_record
@@ -213,7 +214,7 @@ def solve_rolling_run(surface: xr.Dataset, springs: xr.Dataset, greens: xr.Datas
     z1 = surface["z1"].transpose("ex", "ey").values
     ex = surface["element_x"].values
     table = SpringTable.from_dataset(springs)
-    spring_table = SpringTable.checked(table.stiffness, table.force, table.zeta_step, z1.size)
+    spring_table = springs_for_run(springs, SpringTable.checked(table.stiffness, table.force, table.zeta_step, z1.size))
     result, info = solve_rolling(z1, ex, spring_table, kernel, relaxed, speed, settings, solver, threads, d0)
     if not kernel.static:
         steady = steady_mask(result.x_c, info, settings.steady_margin, settings.steady_entry)

@@ -235,7 +235,7 @@ def resolved_material(wildcards):
 def spring_material_inputs(wildcards):
     """Only what the springs depend on, so that a density change does not re-run them."""
     checked(wildcards)
-    return _spring_material_inputs(wildcards.material, config["materials"])
+    return _spring_material_inputs(wildcards.material, config["materials"], config["springs"])
 
 
 def loading_spec(wildcards):

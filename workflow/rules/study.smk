@@ -46,6 +46,7 @@ rule report:
     params:
         study=STUDY,
         variants=lambda w: material_variants(),
+        spring_comparison=config.get("spring_comparison"),  # optional (issue 24): QLV vs elastic springs
         code=SOURCE["report"],
     threads: 1
     script:

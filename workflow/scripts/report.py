@@ -20,4 +20,5 @@ pipeline.run_report(
     spectra_ncs=snakemake.input.get("spectra", []),
     construction_ncs=snakemake.input.get("constructions", []),
     construction_greens_ncs=snakemake.input.get("construction_greens", []),
+    spring_comparison=snakemake.params.get("spring_comparison"),
 )
