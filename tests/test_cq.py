@@ -108,3 +108,108 @@ def test_margin_matrix_two_elements():
     kernel = LayerKernel.dynamic(table, 1000.0)
     res = cq.kernel_margin(kernel, (2, 1), n_theta=2001)
     assert res.min_p == pytest.approx(1.5, rel=1e-10)
+
+
+# ----------------------------------------------------------------------------------------------
+# the default kernel construction (tyreroad.construction)
+
+from tyreroad import construction  # noqa: E402
+from tyreroad.influence import offset_matrix  # noqa: E402
+
+
+def _toy_kernel(shape=(3, 2), n_lags=12, seed=0):
+    rng = np.random.default_rng(seed)
+    nx, ny = shape
+    lags = np.zeros((2 * nx - 1, 2 * ny - 1, n_lags))
+    for dx in range(nx):
+        for dy in range(ny):
+            v = rng.normal(size=n_lags) * 0.3 ** (dx + dy)
+            for sx in (dx, -dx):
+                for sy in (dy, -dy):
+                    lags[nx - 1 + sx, ny - 1 + sy] = v
+    lags[nx - 1, ny - 1, 0] += 3.0
+    return lags
+
+
+def test_transfer_tables_match_the_kernels_own_response():
+    # the FFT fast path against LayerKernel.own_frequency_response (direct sum + tail)
+    from tyreroad.memory import TailModel
+
+    lags = _toy_kernel()
+    r = np.abs(lags[:, :, 0]) * 0.1
+    mem = TailModel(r, np.array([0.2, 0.8]) * (1 - np.array([0.9, 0.99])), np.array([0.9, 0.99]), lags.shape[2])
+    kernel = LayerKernel.dynamic(lags, 1000.0, mem)
+    theta, tables = construction.transfer_tables(lags, r, mem.weights, mem.decays, 64)
+    ref = kernel.own_frequency_response(theta * 1000.0 / (2 * np.pi), (3, 2))
+    assert np.max(np.abs(tables - ref)) < 1e-12 * np.abs(ref).max()
+
+
+def test_symbol_support_bounds_the_patch_and_the_correction_shifts_it_exactly():
+    lags = _toy_kernel()
+    theta, tables = construction.transfer_tables(lags, None, (), (), 16)
+    phi = np.linspace(-np.pi / 2, np.pi / 2, 7)
+    h = construction.patch_support(tables, (3, 2), phi)
+    # brute force: the M x M matrices, every phi
+    for k in (0, 5, 16):
+        a = offset_matrix(tables[k])
+        for j, f in enumerate(phi):
+            lam = np.linalg.eigvalsh(np.cos(f) * a.real - np.sin(f) * a.imag)[0]
+            assert h[k, j] == pytest.approx(lam, rel=1e-12, abs=1e-12)
+    # the circulant-symbol certificate is a lower bound of the patch (and of its sub-patch 2 x 2)
+    _, hs = construction.symbol_support(tables, 7)
+    assert np.all(hs <= h + 1e-12)
+    assert np.all(hs <= construction.patch_support(tables[:, 1:4, :], (2, 2), phi) + 1e-12)
+    # a self-offset FIR shifts every lambda_min Herm(e^{i phi} G_d) by Re(e^{i phi} Delta)
+    corr = construction.Correction(np.array([0.5, -0.2, -0.3]), 1.0, 0.0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0)
+    _, shifted = construction.transfer_tables(construction.apply_correction(lags, corr), None, (), (), 16)
+    delta = 0.5 - 0.2 * np.exp(-1j * theta) - 0.3 * np.exp(-2j * theta)
+    expect = h + (np.exp(1j * phi)[None, :] * delta[:, None]).real
+    assert np.max(np.abs(construction.patch_support(shifted, (3, 2), phi) - expect)) < 1e-12
+
+
+@pytest.fixture(scope="module")
+def tread_8x8():
+    from tyreroad.config import load_config
+    from tyreroad.material import material_from_config
+
+    cfg = load_config("config/config.yaml")
+    mat = material_from_config("tread", cfg["materials"])
+    from tyreroad.greens import greens_dataset
+
+    base = greens_dataset(mat, (8, 8), 1e-3, 51200.0, 256, 4096)
+    # a coarser design grid than the default (test time); the dense margin below checks it
+    ds, corr = construction.correct_greens(base, shape=(8, 8), n_theta=160, n_phi=10, max_rounds=6)
+    return mat, base, ds, corr
+
+
+def test_default_kernel_spring_safe_tread(tread_8x8):
+    mat, base, ds, corr = tread_8x8
+    assert corr.slack >= 0 and corr.dc == pytest.approx(0.0, abs=1e-12 * corr.sum_abs)
+    kernel = LayerKernel.from_greens(ds, "dynamic")
+    # every theta evaluated in full (max_full = n_theta: no conservative phi-tracking bounds left)
+    res = cq.kernel_margin(kernel, (8, 8), n_theta=1201, max_full=1201)
+    # issue 23: 1.5 x the default saturated element spring 3.96e4 N/m (measured 1.05e5 on 4001 theta)
+    assert res.k_crit >= 1.5 * 3.96e4
+    assert res.k_nyquist >= 1.2e5
+    # only the excitation element moved, by the stored taps; the tail is the base's (sum c = 0)
+    diff = ds["g"].values - base["g"].values
+    assert np.allclose(diff[7, 7], ds["spring_correction"].values, rtol=0, atol=1e-15 * np.abs(base["g"].values).max())
+    diff[7, 7] = 0.0
+    assert not diff.any()
+    assert np.array_equal(ds["tail_compliance"].values, base["tail_compliance"].values)
+    # today's kernel fails at z = -1 below that spring (the correction is needed)
+    g = LayerKernel.from_greens(base, "dynamic").own_frequency_response(np.array([25600.0]), (8, 8))[0]
+    assert -1.0 / np.linalg.eigvalsh(offset_matrix(g).real)[0] < 1.5 * 3.96e4
+
+
+def test_default_kernel_fidelity_tread(tread_8x8):
+    mat, base, ds, corr = tread_8x8
+    kernel = LayerKernel.from_greens(ds, "dynamic")
+    freqs = np.geomspace(10.0, 5000.0, 80)
+    exact = cq.exact_frf(mat, (8, 8), 1e-3, freqs)
+    resp = cq.unique_entries(kernel.own_frequency_response(freqs, (8, 8)), (8, 8))
+    fid = cq.fidelity(resp[:, :1], exact[:, :1])
+    assert fid["excitation"][0] <= 0.01 and fid["excitation"][1] <= 0.01
+    # every offset within 1 % of the excitation element's |G| (N1)
+    assert np.max(np.abs(resp - exact) / np.abs(exact[:, :1])) <= 0.01
+    assert corr.in_band <= 4e-3 * (1 + 1e-6)

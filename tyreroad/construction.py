@@ -1,0 +1,434 @@
+r"""The default march kernel (issue 23): today's faithful kernel plus a spring-safe correction of the excitation element.
+
+Construction
+------------
+1. The greens stage's kernel as today (:func:`tyreroad.greens.greens_dataset`; optionally with an
+   ``frf_map``): element FRF, inverse FFT, 256 kept lags, wrapped creep removed, causal precursor
+   correction, creep tail. For the default tread it follows the element FRF to 0.33 % / 0.003 rad at the
+   excitation element, but its transfer function over the patch, G_d(e^{i theta}) = sum_l g_l e^{-i l theta}
+   + tail, is indefinite at z = -1 (the sampled compliance is mass-like at fs / 2: lambda_min G_d(-1) =
+   -4.2e-5 m/N on 20 x 20, 22 x |g_00(-1)|): the march has a root on |z| = 1 for springs >= 2.37e4 N/m.
+2. A causal FIR Delta(z) = sum_{l < n_taps} c_l z^{-l} added to the *excitation element only* (offset
+   (0, 0), lags 0 ... n_taps - 1). On every patch it is Delta I, so it shifts lambda_min Herm(e^{i phi} G_d)
+   by exactly Re(e^{i phi} Delta) for every phi. The taps solve a linear programme over a theta grid
+   (maximise the slack t, capped, with a small sum |c| penalty):
+
+   * fidelity: |Delta(e^{i theta})| <= ``fidelity_budget`` |G_d,00| for f <= ``band`` (inscribed octagon)
+     and sum c_l = 0 (the DC gain, hence the static compliance and the creep tail, unchanged);
+   * spring safety: h(theta, phi_theta) + cos(phi_theta) / k_target + Re(e^{i phi_theta} Delta) >= t,
+     with h(theta, phi) = lambda_min Herm(e^{i phi} G_d(e^{i theta})) of the patch (eigenvalues, on a phi
+     grid). At t >= 0 no spring set 0 <= S <= k_target puts a root of the march on |z| = 1 at the grid
+     points (the bound of :mod:`tyreroad.cq`: v^H e^{i phi}(I + S^1/2 G_d S^1/2) v has real part
+     >= cos phi |v|^2 + lambda_min |S^1/2 v|^2 > 0). phi_theta is re-chosen as the best for the
+     corrected kernel and the LP solved again until it no longer changes (phi = 0 at z = -1).
+
+   With k_target = inf the same LP asks p(theta) > 0 (every spring). For today's tread kernel that is
+   infeasible (the LP's best is min p = -4.6e-6 m/N; see benchmarks/README): a causal correction that is
+   real and large at z = -1 has a positive imaginary part (anti-dissipative) below it, and the fidelity
+   band pins it down below 5 kHz. k_target = 1.2e5 N/m (3 x the default springs' 3.96e4) is feasible.
+
+Whatever the correction adds is reported (:class:`Correction`): the taps, sum |c|, sum c, max |Delta| /
+|G_d,00| in the band and above it, Delta(-1), the base and corrected grid margins, LP rounds.
+
+A patch-independent (Toeplitz symbol) certificate is given by :func:`symbol_support`: exact for the patch
+and all its sub-patches, but conservative where the table truncates a wave field that has not decayed
+(shear wavelength ~15 mm at 9 kHz): for the tread 20 x 20 table it is negative in 0.32-0.44 pi (-3.5e-5
+m/N) where the patch itself has p > 0, and no excitation-element correction within the fidelity budget
+can make it positive (LP: best -2.1 |g_00|); it is reported, not designed for.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.optimize
+import xarray as xr
+from scipy.spatial import ConvexHull
+
+logger = logging.getLogger(__name__)
+
+__all__ = ["Correction", "transfer_tables", "symbol_support", "patch_support", "design_correction",
+           "apply_correction", "correct_greens", "default_kernel", "DEFAULT_K_TARGET"]
+
+#: Springs up to this [N/m] are designed safe (3 x the default saturated element spring 3.96e4 N/m).
+DEFAULT_K_TARGET = 1.2e5
+
+
+def transfer_tables(lags: np.ndarray, tail_compliance: np.ndarray | None, weights, decays, n_grid: int):
+    """G_d(e^{i theta}) of a kernel (kept lags + creep tail) on theta_k = pi k / n_grid, k = 0 ... n_grid.
+
+    Parameters
+    ----------
+    lags : numpy.ndarray
+        (X, Y, L) offset tables of the kept lags [m/N].
+    tail_compliance, weights, decays
+        The tail (:class:`tyreroad.memory.TailModel`): R (X, Y) [m/N], weight_k, decay_k; None: no tail.
+    n_grid : int
+        Intervals on [0, pi].
+
+    Returns
+    -------
+    theta : numpy.ndarray (n_grid + 1,) [rad]
+    tables : numpy.ndarray (n_grid + 1, X, Y) complex [m/N]
+    """
+    n_lags = lags.shape[2]
+    spec = np.fft.rfft(lags, n=2 * n_grid, axis=-1)  # sum_l g_l e^{-i l theta}, theta = 2 pi k / (2 n_grid)
+    theta = np.pi * np.arange(n_grid + 1) / n_grid
+    tables = np.moveaxis(spec, -1, 0)
+    if tail_compliance is not None:
+        z = np.exp(-1j * theta)
+        c = z**n_lags * np.sum(np.asarray(weights) / (1.0 - np.asarray(decays) * z[:, None]), axis=1)
+        tables = tables + c[:, None, None] * np.asarray(tail_compliance)[None]
+    return theta, tables
+
+
+def _pad_sizes(n: int) -> tuple[int, ...]:
+    # circulant sizes >= 2 n - 1 (each embeds the patch's Toeplitz matrix exactly); the best bound is kept
+    return (2 * n - 1, 2 * n, 2 * n + 8, 1 << max(3, math.ceil(math.log2(3 * n))))
+
+
+def symbol_support(tables: np.ndarray, n_phi: int = 361, pads=None):
+    """Certified support function of the numerical range of a patch's offset matrices, from circulant embeddings.
+
+    For a circulant of size px x py >= (2 nx - 1) x (2 ny - 1) whose first column is the offset table (dx
+    taken mod px, dy mod py), the patch's two-level Toeplitz matrix is a principal submatrix, and the
+    circulant's eigenvalues are the table's symbol A(kappa) = sum_d T(d) e^{-i kappa.d} on the grid
+    kappa = 2 pi (m / px, n / py). Hence for every phi and every patch (and sub-patch) of the table,
+
+        lambda_min Herm(e^{i phi} G_d) >= h(phi) = min_grid Re(e^{i phi} A(kappa)),
+
+    exactly (no sampling error). Each circulant size gives a valid bound; the largest is kept.
+
+    Parameters
+    ----------
+    tables : numpy.ndarray
+        (n, 2 nx - 1, 2 ny - 1) complex offset tables, symmetric in dx and dy.
+    n_phi : int
+        phi grid on [-pi/2, pi/2].
+    pads : sequence of (int, int), optional
+        Circulant sizes (each >= 2 n - 1 per axis); default four per axis (see :func:`_pad_sizes`).
+
+    Returns
+    -------
+    phi : numpy.ndarray (n_phi,) [rad]
+    h : numpy.ndarray (n, n_phi) [m/N], a lower bound of lambda_min Herm(e^{i phi} G_d) of the patch.
+    """
+    n, sx, sy = tables.shape
+    nx, ny = (sx + 1) // 2, (sy + 1) // 2
+    if pads is None:
+        pads = list(zip(_pad_sizes(nx), _pad_sizes(ny)))
+    phi = np.linspace(-np.pi / 2, np.pi / 2, n_phi)
+    rot = np.stack([np.cos(phi), -np.sin(phi)], axis=1)
+    h = np.full((n, n_phi), -np.inf)
+    dxs = np.arange(-(nx - 1), nx)
+    dys = np.arange(-(ny - 1), ny)
+    for px, py in pads:
+        if px < sx or py < sy:
+            raise ValueError(f"circulant {px} x {py} smaller than the table {sx} x {sy}")
+        ix, iy = dxs % px, dys % py
+        buf = np.zeros((px, py), dtype=complex)
+        for k in range(n):
+            buf[np.ix_(ix, iy)] = tables[k]
+            a = np.fft.fft2(buf).ravel()
+            pts = np.stack([a.real, a.imag], axis=1)
+            try:
+                pts = pts[ConvexHull(pts).vertices]
+            except Exception:  # degenerate (collinear) point set: all points
+                pass
+            np.maximum(h[k], (rot @ pts.T).min(axis=1), out=h[k])
+    return phi, h
+
+
+def patch_support(tables: np.ndarray, shape, phi: np.ndarray) -> np.ndarray:
+    """lambda_min Herm(e^{i phi} G_d) of the patch's M x M matrices (M = nx ny), per table and phi.
+
+    Parameters
+    ----------
+    tables : numpy.ndarray
+        (n, 2 nx - 1, 2 ny - 1) complex offset tables [m/N].
+    shape : (int, int)
+        Patch (nx, ny) (the tables are cropped to it).
+    phi : numpy.ndarray
+        Angles [rad].
+
+    Returns
+    -------
+    numpy.ndarray (n, len(phi)) [m/N]
+    """
+    from .influence import offset_matrix
+
+    nx, ny = shape
+    cx, cy = (tables.shape[1] - 1) // 2, (tables.shape[2] - 1) // 2
+    out = np.empty((tables.shape[0], len(phi)))
+    for k in range(tables.shape[0]):
+        a = offset_matrix(tables[k, cx - (nx - 1): cx + nx, cy - (ny - 1): cy + ny])
+        b, c = a.real.copy(), a.imag.copy()
+        for j, f in enumerate(phi):
+            out[k, j] = np.linalg.eigvalsh(math.cos(f) * b - math.sin(f) * c)[0]
+    return out
+
+
+@dataclass
+class Correction:
+    """A causal FIR correction of the excitation element's lags and what it changes (numbers reported).
+
+    Attributes
+    ----------
+    taps : numpy.ndarray
+        c_0 ... c_{n_taps - 1} [m/N], added to g[0, 0, 0 ... n_taps - 1].
+    sum_abs, dc : float
+        sum |c_l| and sum c_l [m/N] (dc = 0 to rounding: static compliance and tail unchanged).
+    in_band, above_band : float
+        max |Delta| / |G_d,00| for f <= band and above it [1].
+    at_nyquist : float
+        Delta(-1) [m/N].
+    k_target : float
+        The springs designed safe [N/m] (inf: every spring).
+    slack : float
+        The LP's min over the grid of h + cos phi / k_target + Re(e^{i phi} Delta) [m/N] (>= 0: met on the grid).
+    base_min_p, min_p : float
+        Grid min over theta of p = max_phi h (+ Re e^{i phi} Delta) of the base and corrected kernel [m/N];
+        ``theta_min`` where (corrected) [rad].
+    lp_rounds : int
+    n_theta, n_phi : int
+        Design grid.
+    seconds : float
+    band : float
+        [Hz].
+    notes : list of str
+    """
+
+    taps: np.ndarray
+    sum_abs: float
+    dc: float
+    in_band: float
+    above_band: float
+    at_nyquist: float
+    k_target: float
+    slack: float
+    base_min_p: float
+    min_p: float
+    theta_min: float
+    lp_rounds: int
+    n_theta: int
+    n_phi: int
+    seconds: float
+    band: float
+    notes: list = field(default_factory=list)
+
+    def summary(self) -> str:
+        return (f"spring-safe correction: {self.taps.size} taps on the excitation element, sum|c| {self.sum_abs:.3g} m/N "
+                f"(sum {self.dc:.1e}), |Delta|/|G00| <= {self.in_band:.2e} up to {self.band:.0f} Hz, <= {self.above_band:.3g} "
+                f"above, Delta(-1) {self.at_nyquist:.3g} m/N; k_target {self.k_target:.3g} N/m, slack {self.slack:.3g} m/N; "
+                f"grid min p {self.base_min_p:.3g} -> {self.min_p:.3g} m/N (at {self.theta_min / np.pi:.4f} pi); "
+                f"{self.lp_rounds} LP rounds, {self.n_theta} theta x {self.n_phi} phi, {self.seconds:.1f} s")
+
+
+def _fir(n_taps: int, theta: np.ndarray) -> np.ndarray:
+    return np.exp(-1j * np.outer(theta, np.arange(n_taps)))
+
+
+def design_correction(lags: np.ndarray, tail_compliance=None, weights=(), decays=(), shape=None,
+                      sample_rate: float = 51200.0, band: float = 5000.0, fidelity_budget: float = 4e-3,
+                      k_target: float = DEFAULT_K_TARGET, margin: float = 3e-7, n_taps: int = 128,
+                      n_theta: int = 512, n_phi: int = 16, max_rounds: int = 12) -> Correction:
+    """Design the spring-safe correction of a kernel's excitation element (see the module docstring).
+
+    Parameters
+    ----------
+    lags : numpy.ndarray
+        (2 nx - 1, 2 ny - 1, L) offset tables of the kept lags [m/N] (the greens file's ``g``).
+    tail_compliance, weights, decays
+        The creep tail (:class:`tyreroad.memory.TailModel` residual_compliance, weights, decays); None: none.
+    shape : (int, int), optional
+        Patch the margin is designed on (default: the table's own, ((X + 1) / 2, (Y + 1) / 2)).
+    sample_rate : float
+        [Hz].
+    band : float
+        Upper end of the faithful band [Hz].
+    fidelity_budget : float
+        Largest |Delta| / |G_d,00| allowed up to ``band`` [1], on top of the base kernel's own error.
+    k_target : float
+        Springs designed safe [N/m] (inf: p > 0, every spring).
+    margin : float
+        Slack asked beyond that [m/N] (the LP's t is capped there).
+    n_taps : int
+        Correction taps (<= L).
+    n_theta, n_phi : int
+        theta points above ``band`` (plus 48 in it) and phi points on [-pi/12, pi/2].
+    max_rounds : int
+        LP rounds (phi re-chosen between rounds).
+
+    Returns
+    -------
+    Correction
+        ``slack >= 0``: met on the grid (verify densely with :func:`tyreroad.cq.kernel_margin`); otherwise
+        the best found (``notes``).
+    """
+    t0 = time.perf_counter()
+    n_taps = min(int(n_taps), lags.shape[2])
+    if shape is None:
+        shape = ((lags.shape[0] + 1) // 2, (lags.shape[1] + 1) // 2)
+    cx, cy = (lags.shape[0] - 1) // 2, (lags.shape[1] - 1) // 2
+    n_grid = 4096
+    theta_all, tables = transfer_tables(lags, tail_compliance, weights, decays, n_grid)
+    g00 = np.abs(tables[:, cx, cy])
+    t_band = 2 * np.pi * band / sample_rate
+    sel = np.unique(np.round(np.r_[np.linspace(0.0, t_band, 48), np.linspace(t_band, np.pi, n_theta)]
+                             * n_grid / np.pi).astype(int))
+    theta = theta_all[sel]
+    phi = np.linspace(-np.pi / 12, np.pi / 2, n_phi)
+    j0 = int(np.argmin(np.abs(phi)))
+    h = patch_support(tables[sel], shape, phi)
+    allowance = np.cos(phi)[None, :] / k_target if math.isfinite(k_target) else 0.0
+    hk = h + allowance
+    fid = np.flatnonzero(theta_all <= t_band * 1.02)[::4]
+    e = _fir(n_taps, theta)
+    ef = _fir(n_taps, theta_all[fid])
+
+    def best(values, delta):
+        v = values + (np.exp(1j * phi)[None, :] * delta[:, None]).real
+        j = v.argmax(axis=1)
+        if theta[-1] == np.pi:
+            j[-1] = j0  # G_d(-1) is real: phi = 0 there
+        return v[np.arange(v.shape[0]), j], j
+
+    base_p, _ = best(h, np.zeros(theta.size))
+    _, jsel = best(hk, np.zeros(theta.size))
+    scale = max(margin, 1e-300)
+    radius = fidelity_budget * g00[fid] * math.cos(math.pi / 8) / scale
+    eye, zero = np.eye(n_taps), np.zeros((n_taps, 1))
+    rows_fix = [np.hstack([(np.exp(1j * psi) * ef).real, np.zeros((fid.size, n_taps + 1))])
+                for psi in np.arange(8) * np.pi / 4]
+    rows_fix += [np.hstack([eye, -eye, zero]), np.hstack([-eye, -eye, zero])]
+    rhs_fix = [radius] * 8 + [np.zeros(n_taps)] * 2
+    cost = np.r_[np.zeros(n_taps), 1e-3 * np.ones(n_taps), -1.0]
+    a_eq = np.r_[np.ones(n_taps), np.zeros(n_taps + 1)][None, :]
+    bounds = [(None, None)] * n_taps + [(0, None)] * n_taps + [(None, 1.0)]
+    found, rounds, notes = None, 0, []
+    for _ in range(max_rounds):
+        stab = (np.exp(1j * phi[jsel])[:, None] * e).real
+        rows = [np.hstack([-stab, np.zeros((theta.size, n_taps)), np.ones((theta.size, 1))])] + rows_fix
+        rhs = [hk[np.arange(theta.size), jsel] / scale] + rhs_fix
+        res = scipy.optimize.linprog(cost, A_ub=np.vstack(rows), b_ub=np.concatenate(rhs), A_eq=a_eq, b_eq=[0.0],
+                                     bounds=bounds, method="highs")
+        rounds += 1
+        if res.status != 0:
+            notes.append(f"LP round {rounds}: {res.message}")
+            break
+        taps = res.x[:n_taps] * scale
+        slack, jnew = best(hk, e @ taps)
+        if found is None or slack.min() > found[0]:
+            found = (float(slack.min()), taps)
+        if np.array_equal(jnew, jsel):
+            break
+        jsel = jnew
+    if found is None:
+        found = (float(best(hk, np.zeros(theta.size))[0].min()), np.zeros(n_taps))
+        notes.append("no correction found: the base kernel is returned")
+    slack, taps = found
+    if slack < 0:
+        notes.append(f"k_target {k_target:.3g} N/m not met on the grid (slack {slack:.3g} m/N)")
+    delta_all = _fir(n_taps, theta_all) @ taps
+    p, _ = best(h, e @ taps)
+    i = int(np.argmin(p))
+    ratio = np.abs(delta_all) / g00
+    in_band = theta_all <= t_band
+    corr = Correction(
+        taps=taps, sum_abs=float(np.abs(taps).sum()), dc=float(taps.sum()), in_band=float(ratio[in_band].max()),
+        above_band=float(ratio[~in_band].max()), at_nyquist=float(delta_all[-1].real), k_target=float(k_target),
+        slack=slack, base_min_p=float(base_p.min()), min_p=float(p[i]), theta_min=float(theta[i]), lp_rounds=rounds,
+        n_theta=int(theta.size), n_phi=int(n_phi), seconds=time.perf_counter() - t0, band=float(band), notes=notes,
+    )
+    logger.info("%s", corr.summary())
+    for note in notes:
+        logger.warning("design_correction: %s", note)
+    return corr
+
+
+def apply_correction(lags: np.ndarray, correction: Correction) -> np.ndarray:
+    """The kept lags with the correction added to the excitation element (a copy), (X, Y, L) [m/N]."""
+    out = np.array(lags, dtype=float, copy=True)
+    cx, cy = (out.shape[0] - 1) // 2, (out.shape[1] - 1) // 2
+    out[cx, cy, : correction.taps.size] += correction.taps
+    return out
+
+
+def correct_greens(ds: xr.Dataset, **options) -> tuple[xr.Dataset, Correction]:
+    """The greens stage's post-fold step: design the correction for a greens dataset and apply it.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        :func:`tyreroad.greens.greens_dataset` output (``g``, ``tail_compliance``, retardation spectrum).
+    **options
+        :func:`design_correction` keywords.
+
+    Returns
+    -------
+    (xarray.Dataset, Correction)
+        A copy with ``g`` corrected, ``spring_correction[lag]`` (the taps, m/N) and attrs
+        ``spring_correction_*`` (the reported numbers of :class:`Correction`); ``tail_compliance``
+        unchanged (sum c = 0).
+    """
+    from .kernel import LayerKernel
+
+    kernel = LayerKernel.from_greens(ds, "dynamic")
+    lags = kernel.lags
+    mem = kernel.memory
+    corr = design_correction(lags, None if mem is None else mem.residual_compliance,
+                             () if mem is None else mem.weights, () if mem is None else mem.decays,
+                             sample_rate=float(ds.attrs["sample_rate"]), **options)
+    out = ds.copy()
+    g = apply_correction(ds["g"].transpose("dx", "dy", "lag").values, corr)
+    out["g"] = (("dx", "dy", "lag"), g, dict(ds["g"].attrs))
+    taps = np.zeros(ds.sizes["lag"])
+    taps[: corr.taps.size] = corr.taps
+    out["spring_correction"] = ("lag", taps, {"units": "m/N", "long_name": "causal FIR added to g at the excitation "
+                                              "element (tyreroad.construction.design_correction), sum 0"})
+    out.attrs.update({
+        "spring_correction_taps": int(corr.taps.size), "spring_correction_sum_abs": corr.sum_abs,
+        "spring_correction_in_band": corr.in_band, "spring_correction_band": corr.band,
+        "spring_correction_above_band": corr.above_band, "spring_correction_at_nyquist": corr.at_nyquist,
+        "spring_correction_k_target": corr.k_target, "spring_correction_slack": corr.slack,
+        "spring_correction_base_min_p": corr.base_min_p, "spring_correction_min_p": corr.min_p,
+    })
+    return out, corr
+
+
+def default_kernel(material, shape, element_size: float, sample_rate: float, n_lags: int = 256, n_fft: int = 4096,
+                   frf_map=None, **options) -> tuple[xr.Dataset, Correction]:
+    """The default greens dataset: :func:`tyreroad.greens.greens_dataset` (today's fold) + :func:`correct_greens`.
+
+    What the greens stage stores: ``greens_dataset(material, shape, c, fs, n_lags, n_fft)`` followed by the
+    excitation element's spring-safe FIR (same 256 lags + tail, same cost per step).
+
+    Parameters
+    ----------
+    material : tyreroad.material.Material
+    shape : (int, int)
+        Patch (nx, ny) [elements].
+    element_size : float
+        [m].
+    sample_rate : float
+        [Hz].
+    n_lags, n_fft : int
+        Kept lags; transform length.
+    frf_map : callable, optional
+        Passed to greens_dataset (None: the FRF itself, the default).
+    **options
+        :func:`design_correction` keywords (band [Hz], fidelity_budget, k_target [N/m], margin [m/N],
+        n_taps, n_theta, n_phi).
+
+    Returns
+    -------
+    (xarray.Dataset, Correction)
+    """
+    from .greens import greens_dataset
+
+    ds = greens_dataset(material, shape, element_size, sample_rate, n_lags, n_fft, frf_map=frf_map)
+    return correct_greens(ds, shape=tuple(shape), **options)
