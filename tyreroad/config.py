@@ -279,7 +279,7 @@ def check_references(config: Mapping[str, Any]) -> None:
             raise ConfigError(f"materials.{name}.base = {base!r}: not a preset in materials")
         if base is None and "model" not in preset:
             raise ConfigError(f"materials.{name}: needs either 'model' or 'base'")
-    own = config.get("greens", {}).get("construction", "fold")
+    own = config.get("greens", {}).get("construction", "passive")
     if own in study.get("compare_constructions", []):
         raise ConfigError(
             f"study.compare_constructions = {study['compare_constructions']!r}: names the study's own kernel "

@@ -108,8 +108,10 @@ __all__ = [
 _MIN_N_FFT = 4096
 #: How the greens stage turns the element FRF into the march's kernel (config ``greens.construction``):
 #: ``seed`` the paper's band-limited IFFT with the negative-time part discarded; ``fold`` the same IFFT
-#: with a causal material's band-limit precursor replaced by a causal correction of the first lags.
-KERNEL_CONSTRUCTIONS = ("seed", "fold")
+#: with a causal material's band-limit precursor replaced by a causal correction of the first lags;
+#: ``passive`` (the default) ``fold`` plus a causal FIR on the excitation element that makes the march
+#: stable for springs up to 1.2e5 N/m (:mod:`tyreroad.construction`, applied by the greens stage).
+KERNEL_CONSTRUCTIONS = ("seed", "fold", "passive")
 #: Creep-fit error below which a material counts as causal, so that its precursor is band-limit ringing.
 CAUSAL_FIT_ERROR = 1e-2
 #: Lags that take the place of a causal material's discarded precursor (see precursor_correction).
@@ -149,7 +151,7 @@ class GreensSettings:
     sample_rate: float = 51200.0
     n_lags: int = 256
     n_fft: int = 4096
-    construction: str = "fold"
+    construction: str = "passive"
 
     def __post_init__(self):
         fs = checks.real("greens.sample_rate", self.sample_rate, positive=True)
@@ -1024,7 +1026,8 @@ def greens_dataset(
         in m, frf (n_frequencies, n_offsets)). None: the FRF itself.
     construction : str
         One of :data:`KERNEL_CONSTRUCTIONS` (``seed``: the precursor is discarded even for a causal
-        material, as the paper did; ``fold``: it is replaced by a causal correction).
+        material, as the paper did; ``fold``: it is replaced by a causal correction; ``passive``: as
+        ``fold`` here, the stage then adds :func:`tyreroad.construction.correct_greens`).
 
     Returns
     -------
@@ -1088,7 +1091,7 @@ def greens_dataset(
     # variants) has a negative-time response of its own, which stays discarded as the seed
     # discarded it.
     causal = creep.fit_error <= CAUSAL_FIT_ERROR
-    fold_precursor = causal and construction != "seed"
+    fold_precursor = causal and construction != "seed"  # passive: fold here, its FIR is added after
     kept_before = float(kernel[:, 0].sum() / g_zero[0])
     kernel -= wrapped[:, None] * g_zero[None, :]
     if fold_precursor:

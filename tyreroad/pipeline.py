@@ -184,6 +184,11 @@ def run_greens(
         n_fft=settings.n_fft,
         construction=settings.construction,
     )
+    if settings.construction == "passive":
+        from .construction import correct_greens
+
+        ds, correction = correct_greens(ds, shape=shape)
+        logger.info("greens %s: %s", material_name, correction.summary())
     ds = _judge_kernel(ds, material, shape, settings.construction)
     provenance = {
         "material": {material_name: dict(material.config)},
