@@ -21,6 +21,7 @@ from .sections import (
     cases_section,
     claims_section,
     config_section,
+    claim6_section,
     decides_section,
     equivalent_section,
     greens_by_material,
@@ -45,6 +46,7 @@ REPORT_SECTIONS: tuple[Section, ...] = (
     header_section,
     claims_section,
     decides_section,
+    claim6_section,
     equivalent_section,
     cases_section,
     stability_section,
@@ -76,6 +78,7 @@ def build_report(
     spectra: Sequence[xr.Dataset] | None = None,
     loading: xr.Dataset | None = None,
     thresholds: Mapping[str, float] | None = None,
+    claim6: xr.Dataset | None = None,
 ) -> str:
     """The markdown text of ``results/report.md``.
 
@@ -103,6 +106,9 @@ def build_report(
         load-unload cycles; None omits it.
     thresholds : mapping, optional
         Overrides of :data:`tyreroad.report.claims.THRESHOLDS`, used by the claims and the prose.
+    claim6 : xarray.Dataset, optional
+        ``results/claim6.nc`` (:mod:`tyreroad.claim6`): the claim-6 table by loss-variant definition;
+        None omits it.
 
     Returns
     -------
@@ -134,6 +140,7 @@ def build_report(
         greens=greens_by_material(greens),
         spectra=list(spectra or ()),
         loading=loading,
+        claim6=claim6,
     )
     return _assemble(REPORT_SECTIONS, ctx)
 

@@ -46,6 +46,7 @@ localrules:
     greens_figures,
     study,
     study_figures,
+    claim6,
     report,
     loading_study,
     hysteresis_figure,
@@ -180,6 +181,7 @@ def all_targets():
         *stiffness_spectra(),
         f"{R}/figures/fig9_stiffness_spectrum.png",
         *loading_outputs(),
+        *claim6_outputs(),
     ]
 
 

@@ -37,6 +37,7 @@ rule report:
         greens=study_greens(),
         loading=loading_outputs()[:1],
         spectra=stiffness_spectra(),
+        claim6=claim6_outputs(),
     output:
         md=f"{R}/report.md",
     log:

@@ -11,4 +11,5 @@ pipeline.run_report(
     out_md=snakemake.output.md,
     loading_nc=snakemake.input.loading[0] if snakemake.input.loading else None,
     spectra_ncs=snakemake.input.get("spectra", []),
+    claim6_nc=snakemake.input.claim6[0] if snakemake.input.get("claim6") else None,
 )

@@ -1,0 +1,423 @@
+r"""Claim 6 by loss-variant definition: the seed's (frequency domain) and causal anchors (time domain), issue 24.
+
+The seed's claim 6 says that a loss factor x0.5 / x1.5 changes the saturated contact stiffness by a few
+percent, a higher loss giving a stiffer contact. What a "loss variant" is decides the answer:
+
+* **seed** (``{base: tread, loss_scale: s}``): eta scaled at constant |E|. Not causal (it breaks
+  Kramers-Kronig), so no time-domain run of it is meaningful and the workflow refuses one at planning
+  time (:func:`tyreroad.material.causality_error`). It is measured in the frequency domain: the storage
+  contact stiffness K'(f_c; d0) = Re K* about the relaxed preload state d0 (:mod:`tyreroad.stiffness`),
+  relative to the reference's. The seed variant's relaxed modulus is the reference's (eta(0) = 0), so
+  the relaxed state, the springs and the static kernel are the reference's; only the element FRF
+  G(f_c) differs. d0 (default 0.2 mm) lies in the saturation range and f_c (default 1 kHz) is the centre
+  of the band the reference loading excites: at 500 m/s^2 the tread reaches 0.25 mm in
+  sqrt(2 d_max / a) = 1 ms, the saturation range in 0.85-1 ms.
+* **causal** (``loss_anchor: f_a``): E_s = |E(f_a)|^(1-s) E^s, the phase scaled and |E| kept at f_a.
+  Measured in the time domain: Delta K_sat at the reference acceleration, from contact runs. The study's
+  own loss variants (study.materials, figure 7) carry the default anchor; ``study.claim6.anchor_variants``
+  adds the variants of another anchor (dynamic runs at the reference acceleration only).
+What decides the sign is checked by runs that change one quantity of a variant at a time:
+
+* **storage check** (``modulus_scale: k``, time domain): the reference with every modulus scaled by k, its
+  loss factor unchanged, k the E'(f_c) ratio of one causal variant: E' in the loading's band alone.
+* **springs check** (a variant's ``quasi_static_modulus``, time domain): the reference with the relaxed
+  modulus of one causal variant, which sets the element springs (``springs.modulus: quasi_static``) and the
+  quasi-static kernel; E(w) and the dynamic kernel stay the reference's. A phase-scaled variant anchored at
+  f_a > 0 moves its relaxed modulus a lot (|E(f_a)|^(1-s) E0^s: +72 % / -42 % for x0.5 / x1.5 at 1 kHz).
+* for the seed rows (frequency domain, in the same job): K' of the reference with E scaled so that either
+  its E'(f_c) or its storage compliance Re(1/E)(f_c) matches the seed variant's. At constant |E| these two
+  move in opposite directions (E' = |E| cos phi, Re 1/E = cos phi / |E|), so the runs tell which one K' follows.
+
+A control *accounts for* a variant's Delta when it has its sign and lies within :data:`ACCOUNTS` (relative)
+of it; for a causal variant the sum of the two controls is compared as well.
+
+:func:`claim6_dataset` collects every row (results/claim6.nc, rule ``claim6``); :func:`claim6_rows`
+turns it into the report's table, with the verdict of :func:`tyreroad.report.claims.loss_direction_verdict`
+per definition and the sign's explanation as the controls measured it.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass
+from typing import Any, Mapping, Sequence
+
+import numpy as np
+import xarray as xr
+
+logger = logging.getLogger(__name__)
+
+__all__ = [
+    "Claim6Settings",
+    "storage_change",
+    "seed_storage_stiffness",
+    "seed_controls",
+    "saturated_stiffness_of_runs",
+    "claim6_dataset",
+    "claim6_rows",
+]
+
+_KEYS = {"frequency", "preload", "seed_variants", "anchor_variants", "storage_checks", "springs_checks"}
+
+#: A control accounts for a variant's Delta when it has its sign and |control - Delta| <= ACCOUNTS |Delta|.
+ACCOUNTS = 0.5
+
+
+@dataclass(frozen=True)
+class Claim6Settings:
+    """Config section ``study.claim6``.
+
+    Attributes
+    ----------
+    frequency : float
+        f_c [Hz]: where the seed definition's K' and every variant's E' change are read (default 1 kHz).
+    preload : float
+        d0 [m] of the seed definition's K* (default 0.2 mm, in the saturation range).
+    seed_variants, anchor_variants, storage_checks, springs_checks : tuple of str
+        Material presets (see the module docstring); each may be empty.
+    """
+
+    frequency: float = 1000.0
+    preload: float = 2.0e-4
+    seed_variants: tuple = ()
+    anchor_variants: tuple = ()
+    storage_checks: tuple = ()
+    springs_checks: tuple = ()
+
+    @classmethod
+    def from_config(cls, section: Mapping[str, Any] | None) -> "Claim6Settings":
+        section = dict(section or {})
+        unknown = sorted(set(section) - _KEYS)
+        if unknown:
+            raise ValueError(f"study.claim6.{unknown[0]}: unknown key (expected one of {', '.join(sorted(_KEYS))})")
+        out = {}
+        for key in ("frequency", "preload"):
+            if key in section:
+                v = section[key]
+                if isinstance(v, bool) or not isinstance(v, (int, float)) or not (math.isfinite(v) and v > 0):
+                    raise ValueError(f"study.claim6.{key} = {v!r}: expected a number > 0")
+                out[key] = float(v)
+        for key in ("seed_variants", "anchor_variants", "storage_checks", "springs_checks"):
+            names = section.get(key) or []
+            if isinstance(names, str) or not all(isinstance(n, str) for n in names):
+                raise ValueError(f"study.claim6.{key} = {names!r}: expected a list of material presets")
+            out[key] = tuple(names)
+        return cls(**out)
+
+    @property
+    def time_domain(self) -> tuple:
+        """The materials of the section that get contact runs (anchor variants and the checks)."""
+        return self.anchor_variants + self.storage_checks + self.springs_checks
+
+
+def storage_change(material, reference, frequency: float) -> float:
+    """E'(f) of ``material`` over E'(f) of ``reference``, minus 1 [1]."""
+    w = 2.0 * np.pi * float(frequency)
+    return float(material.storage_modulus(w) / reference.storage_modulus(w) - 1.0)
+
+
+def seed_storage_stiffness(surface: xr.Dataset, springs: xr.Dataset, greens: xr.Dataset, materials: Sequence,
+                           frequency: float, preload: float, solver_settings, threads: int = 1,
+                           same_relaxed_state: bool = True) -> dict[str, complex]:
+    """K*(f_c; d0) about the reference's relaxed preload state, frequency domain only, per material [N/m].
+
+    The relaxed state is the one of the greens file's static kernel and the springs given (the
+    reference's); only the element FRF G(f_c) is each material's. Right for the reference and the seed's
+    variants, whose relaxed modulus is the reference's (checked unless ``same_relaxed_state`` is False:
+    the frequency-domain controls keep the reference's state on purpose and change G(f_c) only).
+    """
+    from .greens import ElementFRF
+    from .kernel import LayerKernel
+    from .springs import SpringTable
+    from .stiffness import SpectrumSettings, stiffness_spectrum
+
+    spectrum = SpectrumSettings(preloads=(float(preload),), f_min=float(frequency), n_frequencies=2,
+                                report_frequencies=(float(frequency),), figure_preload=float(preload))
+    z1 = surface["z1"].transpose("ex", "ey").values
+    table = SpringTable.from_dataset(springs)
+    e_static = float(greens.attrs.get("quasi_static_modulus", math.nan))
+    out = {}
+    for mat in materials:
+        if same_relaxed_state and math.isfinite(e_static) and not math.isclose(mat.quasi_static_modulus, e_static,
+                                                                                rel_tol=1e-9):
+            raise ValueError(f"material {mat.name!r}: its quasi-static modulus {mat.quasi_static_modulus:.6g} Pa differs "
+                             f"from the static kernel's ({e_static:.6g} Pa): its relaxed state is not the reference's")
+        relaxed = LayerKernel.from_greens(greens, "quasistatic", mat)
+        ds = stiffness_spectrum(z1, table, relaxed, ElementFRF(mat, relaxed.element_size), mat, relaxed.sample_rate,
+                                spectrum, solver_settings, threads)
+        sel = ds.sel(frequency=float(frequency), method="nearest").isel(preload=0)
+        out[mat.name] = complex(float(sel["storage_stiffness"]), float(sel["loss_stiffness"]))
+        logger.info("claim 6, K*(%g Hz; d0 = %g mm) of %s: K' = %.6g N/m, K'' = %.6g N/m", frequency, preload * 1e3,
+                    mat.name, out[mat.name].real, out[mat.name].imag)
+    return out
+
+
+@dataclass(frozen=True)
+class _ComplianceMix:
+    """A frequency-axis modulus whose compliance 1/E has the real part of one model and the imaginary part
+    of another (frequency-domain controls only: it is not causal and has no laplace_modulus)."""
+
+    real_from: Any
+    imag_from: Any
+
+    def modulus(self, omega):
+        c_re = (1.0 / self.real_from.modulus(omega)).real
+        c_im = (1.0 / self.imag_from.modulus(omega)).imag
+        return 1.0 / (c_re + 1j * c_im)
+
+
+def seed_controls(reference, seed) -> dict[str, Any]:
+    """The two frequency-domain controls of a seed variant, each changing one part of the layer's compliance.
+
+    ``storage``: compliance 1/E with the seed's real part (storage compliance) and the reference's imaginary
+    part (loss compliance); ``loss``: the other way round. At constant |E| a lower eta raises the storage
+    compliance Re(1/E) = cos(phi)/|E| and lowers the loss compliance |Im(1/E)| = sin(phi)/|E|; K' of the
+    contact (springs in series with the layer) falls with the first and rises as the second falls, so the
+    two controls measure which one sets the sign.
+
+    Returns
+    -------
+    dict
+        ``{"storage": Material, "loss": Material}`` named ``<seed>-storage-control`` and ``<seed>-loss-control``.
+    """
+    import dataclasses
+
+    return {
+        kind: dataclasses.replace(reference, name=f"{seed.name}-{kind}-control", model=_ComplianceMix(*pair),
+                                  loss_scale=1.0, loss_anchor=None, modulus_scale=1.0)
+        for kind, pair in (("storage", (seed, reference)), ("loss", (reference, seed)))
+    }
+
+
+def saturated_stiffness_of_runs(contacts: Sequence, study_cfg: Mapping[str, Any], d_max: float) -> dict[str, float]:
+    """K_sat [N/m] of dynamic contact runs (one per material), computed exactly as the study does."""
+    from . import io
+    from .study import StudySettings, case_on_grid, native_samples, saturated_stiffness
+
+    datasets = [io.read_dataset(p) if not isinstance(p, xr.Dataset) else p for p in contacts]
+    names = [str(ds.attrs["material"]) for ds in datasets]
+    cfg = {k: v for k, v in study_cfg.items() if k not in ("claim6", "loadings")}
+    cfg["materials"] = list(dict.fromkeys(names + [study_cfg["reference_material"]]))
+    settings = StudySettings.from_config(cfg, d_max=d_max)
+    out = {}
+    for i, ds in enumerate(datasets):
+        run = native_samples(ds, str(contacts[i]), settings)
+        k = case_on_grid(run, settings)["stiffness"]
+        out[names[i]] = saturated_stiffness(settings.grid, k, settings.saturation_range)
+    return out
+
+
+def _matching(candidates, value, rel):
+    """The first (name, delta) of ``candidates`` [(name, key value, delta)] whose key matches ``value``."""
+    for name, key, delta in candidates:
+        if math.isclose(key, value, rel_tol=rel, abs_tol=rel):
+            return name, delta
+    return "", math.nan
+
+
+def claim6_dataset(materials: Mapping[str, Any], reference: str, ksat: Mapping[str, float],
+                   k_star: Mapping[str, complex], settings: Claim6Settings, acceleration: float,
+                   study_loss_variants: Sequence[str]) -> xr.Dataset:
+    """The rows of the claim-6 table (results/claim6.nc), dim ``variant``.
+
+    Parameters
+    ----------
+    materials : mapping
+        Material name -> :class:`tyreroad.material.Material` (the reference and every variant and check).
+    reference : str
+        The reference material.
+    ksat : mapping
+        K_sat [N/m] at the reference acceleration of the reference and of every time-domain material.
+    k_star : mapping
+        K*(f_c; d0) [N/m] of the reference, every seed variant and its two controls
+        (``<seed>-storage-control``, ``<seed>-loss-control``, :func:`seed_controls`).
+    settings : Claim6Settings
+    acceleration : float
+        The reference acceleration [m/s^2].
+    study_loss_variants : sequence of str
+        The study's loss variants (the default anchor, figure 7).
+
+    Returns
+    -------
+    xarray.Dataset
+        Per variant: ``definition`` (seed, causal, storage-check, springs-check), ``delta`` (K' change
+        for seed rows, K_sat change otherwise), ``loss_scale``, ``loss_anchor`` (NaN: seed),
+        ``storage_change`` (E'(f_c)), ``quasi_static_change``, and the controls that change one quantity of it:
+        ``storage_control`` / ``springs_control`` (causal rows, the matching check's Delta K_sat) or
+        ``storage_control`` / ``compliance_control`` (seed rows, Delta K' of the controls with the seed's
+        storage compliance / loss compliance alone); NaN where there is none.
+    """
+    ref = materials[reference]
+    w_c = 2.0 * np.pi * settings.frequency
+
+    def qs_change(m):
+        return m.quasi_static_modulus / ref.quasi_static_modulus - 1.0
+
+    storage_checks = [(n, storage_change(materials[n], ref, settings.frequency), ksat[n] / ksat[reference] - 1.0)
+                      for n in settings.storage_checks]
+    springs_checks = [(n, qs_change(materials[n]), ksat[n] / ksat[reference] - 1.0) for n in settings.springs_checks]
+    rows = []
+    for group, names in (("causal", list(study_loss_variants)), ("causal", list(settings.anchor_variants)),
+                         ("seed", list(settings.seed_variants)), ("storage-check", list(settings.storage_checks)),
+                         ("springs-check", list(settings.springs_checks))):
+        for name in names:
+            m = materials[name]
+            row = {"variant": name, "definition": group, "loss_scale": float(m.loss_scale),
+                   "loss_anchor": math.nan if m.loss_anchor is None else float(m.loss_anchor),
+                   "modulus_scale": float(m.modulus_scale),
+                   "storage_change": storage_change(m, ref, settings.frequency),
+                   "compliance_change": float((1.0 / complex(m.modulus(w_c))).real / (1.0 / complex(ref.modulus(w_c))).real
+                                              - 1.0),
+                   "loss_compliance_change": float((1.0 / complex(m.modulus(w_c))).imag
+                                                   / (1.0 / complex(ref.modulus(w_c))).imag - 1.0),
+                   "quasi_static_change": qs_change(m), "default": name in study_loss_variants,
+                   "storage_control": math.nan, "springs_control": math.nan, "compliance_control": math.nan,
+                   "storage_control_name": "", "springs_control_name": ""}
+            if group == "seed":
+                kr = k_star[reference].real
+                row["quantity"] = "storage contact stiffness K'(f_c; d0)"
+                row["delta"] = k_star[name].real / kr - 1.0
+                row["storage_control"] = k_star[f"{name}-storage-control"].real / kr - 1.0
+                row["compliance_control"] = k_star[f"{name}-loss-control"].real / kr - 1.0
+            else:
+                row["quantity"] = "K_sat"
+                row["delta"] = ksat[name] / ksat[reference] - 1.0
+                if group == "causal":
+                    row["storage_control_name"], row["storage_control"] = _matching(
+                        storage_checks, row["storage_change"], 1e-3)
+                    row["springs_control_name"], row["springs_control"] = _matching(
+                        springs_checks, row["quasi_static_change"], 1e-4)
+            rows.append(row)
+    dim = "variant"
+    meta = {
+        "definition": ("1", "seed (constant |E|, frequency domain), causal (phase scaled, time domain), "
+                            "storage-check or springs-check"),
+        "quantity": ("1", "what delta compares"),
+        "delta": ("1", "variant / reference - 1 of the quantity (K' at f_c and d0 for seed rows, else K_sat)"),
+        "loss_scale": ("1", "loss scale s"),
+        "loss_anchor": ("Hz", "frequency whose |E| the causal variant keeps (NaN: the seed's constant |E|)"),
+        "modulus_scale": ("1", "modulus scale k (storage checks)"),
+        "storage_change": ("1", "E'(f_c) / E'_reference(f_c) - 1"),
+        "compliance_change": ("1", "Re(1/E)(f_c) / Re(1/E_reference)(f_c) - 1 (storage compliance)"),
+        "loss_compliance_change": ("1", "Im(1/E)(f_c) / Im(1/E_reference)(f_c) - 1 (loss compliance)"),
+        "quasi_static_change": ("1", "quasi-static (relaxed) modulus / the reference's - 1: the springs"),
+        "default": ("1", "1: a study loss variant (the default anchor, figure 7)"),
+        "storage_control": ("1", "delta of the control with the variant's E'(f_c) alone (seed rows: its storage "
+                                 "compliance Re(1/E) alone, at every frequency; NaN: none)"),
+        "springs_control": ("1", "delta of the control with the variant's quasi-static modulus alone (NaN: none)"),
+        "compliance_control": ("1", "seed rows: delta of the control with the variant's loss compliance Im(1/E) alone"),
+        "storage_control_name": ("1", "material of the storage control (time domain; '' for none)"),
+        "springs_control_name": ("1", "material of the springs control ('' for none)"),
+    }
+    text = {"definition", "quantity", "storage_control_name", "springs_control_name"}
+    values = {k: np.array([r[k] for r in rows], dtype=object) if k in text else
+              np.array([r[k] for r in rows], dtype=np.int8 if k == "default" else float) for k in meta}
+    ds = xr.Dataset(
+        {k: (dim, values[k], {"units": u, "long_name": n}) for k, (u, n) in meta.items()},
+        coords={dim: (dim, np.array([r["variant"] for r in rows], dtype=object),
+                      {"units": "1", "long_name": "material preset"})},
+        attrs={"reference_material": reference, "frequency": settings.frequency, "preload": settings.preload,
+               "acceleration": float(acceleration), "accounts_within": ACCOUNTS,
+               "reference_saturated_stiffness": float(ksat.get(reference, math.nan)),
+               "reference_storage_stiffness": float(k_star[reference].real) if reference in k_star else math.nan},
+    )
+    return ds
+
+
+def _pct(x: float) -> str:
+    return f"{100 * x:+.2f} %"
+
+
+def _accounts(control: float, delta: float, within: float = ACCOUNTS) -> bool:
+    """A control accounts for ``delta``: the same sign and |control - delta| <= within |delta|."""
+    return (math.isfinite(control) and delta != 0 and np.sign(control) == np.sign(delta)
+            and abs(control - delta) <= within * abs(delta))
+
+
+def _sign_sentence(r: Mapping[str, Any], f_c: float) -> tuple[str, bool]:
+    """What decides the sign of one variant's Delta, as its controls measured it; and whether a control
+    (or the sum of the two) accounts for it."""
+    s, d = r["loss_scale"], r["delta"]
+    head = f"η×{s:g} ({_pct(d)})"
+    if r["definition"] == "seed":
+        st, lo = r["storage_control"], r["compliance_control"]
+        parts = [f"its storage compliance Re(1/E) ({_pct(r['compliance_change'])} at {f_c:g} Hz) alone gives {_pct(st)}",
+                 f"its loss compliance Im(1/E) ({_pct(r['loss_compliance_change'])}) alone gives {_pct(lo)}"]
+        found = [name for name, c in (("the storage compliance", st), ("the loss compliance", lo)) if _accounts(c, d)]
+        if len(found) == 1:
+            verdict, ok = f"{found[0]} decides", True
+        elif len(found) == 2:
+            verdict, ok = "either alone accounts for it", True
+        elif math.isfinite(st) and math.isfinite(lo) and _accounts(st + lo, d):
+            verdict, ok = (f"the two together ({_pct(st + lo)}) account for it, the sign is that of the larger, "
+                           + ("the storage compliance" if abs(st) > abs(lo) else "the loss compliance")), True
+        else:
+            verdict, ok = "the controls do not account for it", False
+        return f"{head}: {'; '.join(parts)}: {verdict}", ok
+    st, sp = r["storage_control"], r["springs_control"]
+    parts = [f"E′({f_c:g} Hz) {_pct(r['storage_change'])}" + (f" alone gives {_pct(st)}" if math.isfinite(st) else
+                                                               " (no control run)"),
+             f"relaxed modulus (springs) {_pct(r['quasi_static_change'])}" + (
+                 f" alone gives {_pct(sp)}" if math.isfinite(sp) else
+                 " (no control run)" if abs(r["quasi_static_change"]) > 1e-9 else ", unchanged")]
+    found = [name for name, c in (("E′ in the band", st), ("the springs' (relaxed) modulus", sp)) if _accounts(c, d)]
+    total = (0.0 if not math.isfinite(st) else st) + (0.0 if not math.isfinite(sp) else sp)
+    if abs(r["quasi_static_change"]) <= 1e-9 and not math.isfinite(st):
+        text, ok = ("only the layer's dynamic modulus differs from the reference (same springs and relaxed modulus): "
+                    f"its sign is that of E′({f_c:g} Hz)" if np.sign(d) == np.sign(r["storage_change"]) else
+                    "only the layer's dynamic modulus differs from the reference, yet ΔK_sat has the opposite sign "
+                    f"to E′({f_c:g} Hz)"), np.sign(d) == np.sign(r["storage_change"])
+    elif len(found) == 1:
+        text, ok = f"{found[0]} decides", True
+    elif len(found) == 2:
+        text, ok = "either control alone accounts for it", True
+    elif math.isfinite(st) and math.isfinite(sp) and _accounts(total, d):
+        text, ok = f"the two together ({_pct(total)}) account for it", True
+    else:
+        text, ok = "the controls do not account for it", False
+    return f"{head}: {'; '.join(parts)}: {text}", bool(ok)
+
+
+def claim6_rows(ds: xr.Dataset, delta_max: float, delta_min: float) -> list[dict[str, Any]]:
+    """The claim-6 table: one row per definition (the seed's; each causal anchor), with its controls.
+
+    Each row: ``definition`` (words), ``quantity``, ``deltas`` {scale: delta}, ``verdict``
+    (:func:`tyreroad.report.claims.loss_direction_verdict`), ``checked`` (every variant's Delta is
+    accounted for by its controls, :func:`_sign_sentence`), ``default``, ``anchor`` (None: seed) and
+    ``sign``: the sentence on what decides the sign, with the control runs' numbers.
+    Seed first, then the default anchor, then the others by anchor.
+    """
+    from .report.claims import loss_direction_verdict
+
+    f_c = float(ds.attrs["frequency"])
+    d0 = float(ds.attrs["preload"])
+    a = float(ds.attrs["acceleration"])
+    records = [{k: (ds[k].values[i].item() if hasattr(ds[k].values[i], "item") else ds[k].values[i])
+                for k in ds.data_vars} for i in range(ds.sizes["variant"])]
+    groups: dict[Any, list[dict]] = {}
+    for r in records:
+        if r["definition"] == "seed":
+            groups.setdefault("seed", []).append(r)
+        elif r["definition"] == "causal":
+            groups.setdefault(float(r["loss_anchor"]), []).append(r)
+    rows = []
+    for key, members in groups.items():
+        members = sorted(members, key=lambda r: r["loss_scale"])
+        deltas = {float(r["loss_scale"]): float(r["delta"]) for r in members}
+        default = any(int(r["default"]) for r in members)
+        if key == "seed":
+            name = "seed: η scaled at constant \\|E\\| (not causal; frequency domain)"
+            quantity = f"ΔK′({f_c:g} Hz; d0 = {d0 * 1e3:g} mm)"
+        else:
+            kept = "the relaxed modulus (0 Hz)" if key == 0 else f"\\|E({key:g} Hz)\\|"
+            name = f"causal: phase scaled, {kept} kept" + (" (default, figure 7)" if default else "")
+            quantity = f"ΔK_sat(a = {a:g} m/s²)"
+        sentences = [_sign_sentence(r, f_c) for r in members]
+        checked = all(ok for _, ok in sentences)
+        sign = "; ".join(t for t, _ in sentences) + ". " + ("Checked by run." if checked else "NOT accounted for by the control runs.")
+        rows.append({"definition": name, "quantity": quantity, "deltas": deltas,
+                     "verdict": loss_direction_verdict(deltas, delta_max, delta_min),
+                     "checked": checked, "default": default, "anchor": None if key == "seed" else key, "sign": sign})
+    rows.sort(key=lambda r: (r["anchor"] is not None, not r["default"], r["anchor"] or 0.0))
+    return rows
