@@ -318,8 +318,8 @@ def run_claim6(
     K_sat of the reference, the study's loss variants, the anchor variants and the checks from their
     dynamic runs at the highest study acceleration.
     """
-    from .claim6 import (Claim6Settings, claim6_dataset, saturated_stiffness_of_runs, seed_controls,
-                         seed_storage_stiffness)
+    from .claim6 import Claim6Settings, claim6_dataset
+    from .claim6_runs import saturated_stiffness_of_runs, seed_controls, seed_storage_stiffness
     from .contact import SolverSettings
     from .material import material_from_config
 

@@ -34,7 +34,7 @@ STAGE_MODULES: dict[str, tuple[str, ...]] = {
     "study": ("log", "pipeline", "study"),
     "study_figures": ("log", "pipeline", "plots.study", "study"),
     "report": ("log", "pipeline", "report", "study", "stiffness", "claim6"),
-    "claim6": ("log", "pipeline", "claim6", "study", "stiffness", "greens", "material", "contact"),
+    "claim6": ("log", "pipeline", "claim6", "claim6_runs", "study", "stiffness", "greens", "material", "contact"),
     "loading": ("log", "pipeline", "contact", "material", "loading", "hysteresis"),
     "loading_study": ("log", "pipeline", "hysteresis"),
     "hysteresis_figure": ("log", "pipeline", "plots.hysteresis"),
