@@ -24,6 +24,8 @@ What decides the sign is checked by runs that change one quantity of a variant a
   modulus of one causal variant, which sets the element springs (``springs.modulus: quasi_static``) and the
   quasi-static kernel; E(w) and the dynamic kernel stay the reference's. A phase-scaled variant anchored at
   f_a > 0 moves its relaxed modulus a lot (|E(f_a)|^(1-s) E0^s: +72 % / -42 % for x0.5 / x1.5 at 1 kHz).
+* **layer check** (a causal variant with the reference's ``quasi_static_modulus``, time domain): the variant's
+  layer with the reference's springs and quasi-static kernel: the complement of the springs check.
 * for the seed rows (frequency domain, in the same job): K' of the reference with E scaled so that either
   its E'(f_c) or its storage compliance Re(1/E)(f_c) matches the seed variant's. At constant |E| these two
   move in opposite directions (E' = |E| cos phi, Re 1/E = cos phi / |E|), so the runs tell which one K' follows.
@@ -56,10 +58,13 @@ __all__ = [
     "claim6_rows",
 ]
 
-_KEYS = {"frequency", "preload", "seed_variants", "anchor_variants", "storage_checks", "springs_checks"}
+_KEYS = {"frequency", "preload", "seed_variants", "anchor_variants", "storage_checks", "springs_checks", "layer_checks"}
 
 #: A control accounts for a variant's Delta when it has its sign and |control - Delta| <= ACCOUNTS |Delta|.
 ACCOUNTS = 0.5
+#: Two controls together account for it when their sum has its sign and |sum - Delta| <= ACCOUNTS_SUM (|a| + |b|)
+#: (the parts may nearly cancel, so the residual is measured against their size).
+ACCOUNTS_SUM = 0.25
 
 
 @dataclass(frozen=True)
@@ -72,7 +77,7 @@ class Claim6Settings:
         f_c [Hz]: where the seed definition's K' and every variant's E' change are read (default 1 kHz).
     preload : float
         d0 [m] of the seed definition's K* (default 0.2 mm, in the saturation range).
-    seed_variants, anchor_variants, storage_checks, springs_checks : tuple of str
+    seed_variants, anchor_variants, storage_checks, springs_checks, layer_checks : tuple of str
         Material presets (see the module docstring); each may be empty.
     """
 
@@ -82,6 +87,7 @@ class Claim6Settings:
     anchor_variants: tuple = ()
     storage_checks: tuple = ()
     springs_checks: tuple = ()
+    layer_checks: tuple = ()
 
     @classmethod
     def from_config(cls, section: Mapping[str, Any] | None) -> "Claim6Settings":
@@ -96,7 +102,7 @@ class Claim6Settings:
                 if isinstance(v, bool) or not isinstance(v, (int, float)) or not (math.isfinite(v) and v > 0):
                     raise ValueError(f"study.claim6.{key} = {v!r}: expected a number > 0")
                 out[key] = float(v)
-        for key in ("seed_variants", "anchor_variants", "storage_checks", "springs_checks"):
+        for key in ("seed_variants", "anchor_variants", "storage_checks", "springs_checks", "layer_checks"):
             names = section.get(key) or []
             if isinstance(names, str) or not all(isinstance(n, str) for n in names):
                 raise ValueError(f"study.claim6.{key} = {names!r}: expected a list of material presets")
@@ -106,7 +112,7 @@ class Claim6Settings:
     @property
     def time_domain(self) -> tuple:
         """The materials of the section that get contact runs (anchor variants and the checks)."""
-        return self.anchor_variants + self.storage_checks + self.springs_checks
+        return self.anchor_variants + self.storage_checks + self.springs_checks + self.layer_checks
 
 
 def storage_change(material, reference, frequency: float) -> float:
@@ -164,10 +170,13 @@ def claim6_dataset(materials: Mapping[str, Any], reference: str, ksat: Mapping[s
     storage_checks = [(n, storage_change(materials[n], ref, settings.frequency), ksat[n] / ksat[reference] - 1.0)
                       for n in settings.storage_checks]
     springs_checks = [(n, qs_change(materials[n]), ksat[n] / ksat[reference] - 1.0) for n in settings.springs_checks]
+    layer_checks = [(n, (float(materials[n].loss_scale), materials[n].loss_anchor), ksat[n] / ksat[reference] - 1.0)
+                    for n in settings.layer_checks if abs(qs_change(materials[n])) < 1e-9]
     rows = []
     for group, names in (("causal", list(study_loss_variants)), ("causal", list(settings.anchor_variants)),
                          ("seed", list(settings.seed_variants)), ("storage-check", list(settings.storage_checks)),
-                         ("springs-check", list(settings.springs_checks))):
+                         ("springs-check", list(settings.springs_checks)),
+                         ("layer-check", list(settings.layer_checks))):
         for name in names:
             m = materials[name]
             row = {"variant": name, "definition": group, "loss_scale": float(m.loss_scale),
@@ -180,7 +189,8 @@ def claim6_dataset(materials: Mapping[str, Any], reference: str, ksat: Mapping[s
                                                    / (1.0 / complex(ref.modulus(w_c))).imag - 1.0),
                    "quasi_static_change": qs_change(m), "default": name in study_loss_variants,
                    "storage_control": math.nan, "springs_control": math.nan, "compliance_control": math.nan,
-                   "storage_control_name": "", "springs_control_name": ""}
+                   "layer_control": math.nan,
+                   "storage_control_name": "", "springs_control_name": "", "layer_control_name": ""}
             if group == "seed":
                 kr = k_star[reference].real
                 row["quantity"] = "storage contact stiffness K'(f_c; d0)"
@@ -195,6 +205,9 @@ def claim6_dataset(materials: Mapping[str, Any], reference: str, ksat: Mapping[s
                         storage_checks, row["storage_change"], 1e-3)
                     row["springs_control_name"], row["springs_control"] = _matching(
                         springs_checks, row["quasi_static_change"], 1e-4)
+                    key = (float(m.loss_scale), m.loss_anchor)
+                    row["layer_control_name"], row["layer_control"] = next(
+                        ((n, dl) for n, k, dl in layer_checks if k == key), ("", math.nan))
             rows.append(row)
     dim = "variant"
     meta = {
@@ -216,8 +229,10 @@ def claim6_dataset(materials: Mapping[str, Any], reference: str, ksat: Mapping[s
         "compliance_control": ("1", "seed rows: delta of the control with the variant's loss compliance Im(1/E) alone"),
         "storage_control_name": ("1", "material of the storage control (time domain; '' for none)"),
         "springs_control_name": ("1", "material of the springs control ('' for none)"),
+        "layer_control": ("1", "delta of the variant run with the reference's springs (the layer alone; NaN: none)"),
+        "layer_control_name": ("1", "material of the layer control ('' for none)"),
     }
-    text = {"definition", "quantity", "storage_control_name", "springs_control_name"}
+    text = {"definition", "quantity", "storage_control_name", "springs_control_name", "layer_control_name"}
     values = {k: np.array([r[k] for r in rows], dtype=object) if k in text else
               np.array([r[k] for r in rows], dtype=np.int8 if k == "default" else float) for k in meta}
     ds = xr.Dataset(
@@ -242,9 +257,16 @@ def _accounts(control: float, delta: float, within: float = ACCOUNTS) -> bool:
             and abs(control - delta) <= within * abs(delta))
 
 
+def _accounts_sum(a: float, b: float, delta: float) -> bool:
+    """Two controls together account for ``delta``: their sum has its sign and misses it by at most
+    :data:`ACCOUNTS_SUM` of their sizes |a| + |b|."""
+    return (math.isfinite(a) and math.isfinite(b) and delta != 0 and np.sign(a + b) == np.sign(delta)
+            and abs(a + b - delta) <= ACCOUNTS_SUM * (abs(a) + abs(b)))
+
+
 def _sign_sentence(r: Mapping[str, Any], f_c: float) -> tuple[str, bool]:
-    """What decides the sign of one variant's Delta, as its controls measured it; and whether a control
-    (or the sum of the two) accounts for it."""
+    """What decides the sign of one variant's Delta, as its control runs measured it; and whether the
+    controls account for it (one alone, or two together)."""
     s, d = r["loss_scale"], r["delta"]
     head = f"η×{s:g} ({_pct(d)})"
     if r["definition"] == "seed":
@@ -256,33 +278,42 @@ def _sign_sentence(r: Mapping[str, Any], f_c: float) -> tuple[str, bool]:
             verdict, ok = f"{found[0]} decides", True
         elif len(found) == 2:
             verdict, ok = "either alone accounts for it", True
-        elif math.isfinite(st) and math.isfinite(lo) and _accounts(st + lo, d):
-            verdict, ok = (f"the two together ({_pct(st + lo)}) account for it, the sign is that of the larger, "
+        elif _accounts_sum(st, lo, d):
+            verdict, ok = (f"the two nearly cancel and together ({_pct(st + lo)}) account for it; the sign is that of "
                            + ("the storage compliance" if abs(st) > abs(lo) else "the loss compliance")), True
         else:
             verdict, ok = "the controls do not account for it", False
         return f"{head}: {'; '.join(parts)}: {verdict}", ok
-    st, sp = r["storage_control"], r["springs_control"]
-    parts = [f"E′({f_c:g} Hz) {_pct(r['storage_change'])}" + (f" alone gives {_pct(st)}" if math.isfinite(st) else
-                                                               " (no control run)"),
-             f"relaxed modulus (springs) {_pct(r['quasi_static_change'])}" + (
-                 f" alone gives {_pct(sp)}" if math.isfinite(sp) else
-                 " (no control run)" if abs(r["quasi_static_change"]) > 1e-9 else ", unchanged")]
-    found = [name for name, c in (("E′ in the band", st), ("the springs' (relaxed) modulus", sp)) if _accounts(c, d)]
-    total = (0.0 if not math.isfinite(st) else st) + (0.0 if not math.isfinite(sp) else sp)
-    if abs(r["quasi_static_change"]) <= 1e-9 and not math.isfinite(st):
-        text, ok = ("only the layer's dynamic modulus differs from the reference (same springs and relaxed modulus): "
-                    f"its sign is that of E′({f_c:g} Hz)" if np.sign(d) == np.sign(r["storage_change"]) else
-                    "only the layer's dynamic modulus differs from the reference, yet ΔK_sat has the opposite sign "
-                    f"to E′({f_c:g} Hz)"), np.sign(d) == np.sign(r["storage_change"])
-    elif len(found) == 1:
+    st, sp, la = r["storage_control"], r["springs_control"], r["layer_control"]
+    qs_fixed = abs(r["quasi_static_change"]) <= 1e-9
+    parts = []
+    if not qs_fixed:
+        parts.append(f"its relaxed modulus ({_pct(r['quasi_static_change'])}: the element springs) alone gives "
+                     + (_pct(sp) if math.isfinite(sp) else "– (no control run)"))
+        parts.append("its layer with the reference's springs gives " + (_pct(la) if math.isfinite(la) else
+                                                                       "– (no control run)"))
+    parts.append(f"E′({f_c:g} Hz) {_pct(r['storage_change'])} alone gives "
+                 + (_pct(st) if math.isfinite(st) else "– (no control run)"))
+    if qs_fixed:
+        ok = bool(np.sign(d) == np.sign(r["storage_change"]))
+        text = ("its springs and relaxed modulus are the reference's, only the layer's dynamic modulus differs: "
+                + (f"ΔK_sat has the sign of E′({f_c:g} Hz)" if ok else f"yet ΔK_sat has the sign opposite to E′({f_c:g} Hz)"))
+        if math.isfinite(st):
+            ok = ok and _accounts(st, d)
+        return f"{head}: {'; '.join(parts[-1:] if math.isfinite(st) else [])}{'; ' if math.isfinite(st) else ''}{text}", ok
+    found = [name for name, c in (("the springs' (relaxed) modulus", sp), ("the layer", la)) if _accounts(c, d)]
+    if len(found) == 1:
         text, ok = f"{found[0]} decides", True
     elif len(found) == 2:
-        text, ok = "either control alone accounts for it", True
-    elif math.isfinite(st) and math.isfinite(sp) and _accounts(total, d):
-        text, ok = f"the two together ({_pct(total)}) account for it", True
+        text, ok = "either alone accounts for it", True
+    elif _accounts_sum(sp, la, d):
+        text, ok = (f"springs and layer together ({_pct(sp + la)}) account for it; the sign is that of "
+                    + ("the springs" if abs(sp) > abs(la) else "the layer")), True
     else:
         text, ok = "the controls do not account for it", False
+    if math.isfinite(la) and math.isfinite(st):
+        text += ("; the layer's own part follows E′ in the band" if _accounts(st, la) else
+                 "; the layer's own part is not E′ in the band alone")
     return f"{head}: {'; '.join(parts)}: {text}", bool(ok)
 
 

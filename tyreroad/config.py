@@ -575,7 +575,7 @@ def time_domain_materials(config: Mapping[str, Any]) -> list[tuple[str, str, str
         key = "rolling.materials" if "materials" in config["rolling"] else "rolling.materials (default: study.materials)"
         out += [(f"{key}[{i}]", m, "a rolling pass") for i, m in enumerate(names)]
     claim6 = study.get("claim6") or {}
-    for key in ("anchor_variants", "storage_checks", "springs_checks"):
+    for key in ("anchor_variants", "storage_checks", "springs_checks", "layer_checks"):
         out += [(f"study.claim6.{key}[{i}]", m, "a contact run") for i, m in enumerate(claim6.get(key) or [])]
     return out
 
@@ -603,7 +603,7 @@ def _check_claim6(config: Mapping[str, Any]) -> None:
     except ValueError as exc:
         raise ConfigError(str(exc)) from None
     materials = config["materials"]
-    for key in ("seed_variants", "anchor_variants", "storage_checks", "springs_checks"):
+    for key in ("seed_variants", "anchor_variants", "storage_checks", "springs_checks", "layer_checks"):
         for i, name in enumerate(getattr(settings, key)):
             if name not in materials:
                 raise ConfigError(f"study.claim6.{key}[{i}] = {name!r}: not a preset in materials "
