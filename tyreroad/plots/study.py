@@ -180,7 +180,7 @@ def plot_variants(
             ax2.plot(d, (k - k_ref) * 1e-3, color=color, ls=ls, lw=1.6)
     ax.set_ylabel("contact stiffness K [MN/m]")
     # the loss variants are causal (issue 24): the phase of E scaled, |E| kept at the default anchor
-    what = "loss-factor variants (causal: arg E scaled)" if kind == "loss" else f"{what} variants"
+    what = "causal loss variants" if kind == "loss" else f"{what} variants"
     ax.set_title(f"Contact stiffness, {what}, dynamic a = {accel:g} m/s²")
     ax.set_ylim(bottom=0)
     ax.grid(alpha=0.3)

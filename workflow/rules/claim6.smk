@@ -2,25 +2,7 @@
 # frequency domain (K* about the reference's relaxed state, no time-domain job of theirs), the causal anchors
 # in the time domain (the study's loss variants and study.claim6.anchor_variants), and the storage checks.
 # The section is checked at planning time (tyreroad.config.check_config); results/claim6.nc feeds the report.
-from tyreroad.claim6 import Claim6Settings as _Claim6Settings
-
-CLAIM6 = _Claim6Settings.from_config(STUDY.get("claim6"))
-
-
-def claim6_outputs():
-    """results/claim6.nc when the study has a claim6 section."""
-    return [f"{R}/claim6.nc"] if STUDY.get("claim6") is not None else []
-
-
-def claim6_runs():
-    """Dynamic runs at the highest study acceleration: the reference, the study's loss variants, the anchor
-    variants and the storage checks (the first two are also study runs)."""
-    ref = STUDY["reference_material"]
-    loss = [name for _, name in material_variants()["loss"] if name != ref]
-    a = fmt_accel(max(STUDY["accelerations"]))
-    return [f"{R}/contact/{STUDY_SURFACE}/{m}/dynamic_{a}.nc" for m in [ref, *loss, *CLAIM6.time_domain]]
-
-
+# Its helpers (CLAIM6, claim6_outputs, claim6_runs) live in common.smk.
 rule claim6:
     input:
         surface=f"{R}/surface/{STUDY_SURFACE}.nc",
