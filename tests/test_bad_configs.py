@@ -6,7 +6,7 @@ the job's previous result, or that was accepted silently, or that gave a weak me
 
 * Every case runs in-process through the planning checks exactly as workflow/rules/common.smk
   calls them (fast), and the first :data:`N_SNAKEMAKE` cases (at least 30, the issue's own cases
-  first) also through a real `snakemake -n`, two at a time (about 3 s each), in one copy of the
+  first) and issue 24's (:data:`SNAKEMAKE_CASES`) also through a real `snakemake -n`, two at a time (about 3 s each), in one copy of the
   workflow that holds results trees of the default and the test study: both trees must be
   byte-identical afterwards.
 * A few cases also run without -n (a real run): planning stops them before any job.
@@ -105,10 +105,29 @@ CASES = [
     ("table-precision", "springs:\n  table_precision: float16\n", None, "springs.table_precision"),
     ("springs-rheology", "springs:\n  rheology: visco\n", None, "springs.rheology"),
     ("qlv-modulus", "springs:\n  rheology: qlv\n  modulus: 3.0e+7\n", None, "springs.rheology"),
+    # --- issue 24: a seed (constant-|E|, not causal) loss variant in a time-domain stage; a non-passive one
+    ("seed-variant-study", "materials:\n  tread-eta0.5: {base: tread, loss_scale: 0.5, loss_anchor: null}\n", None,
+     "study.materials[1] = 'tread-eta0.5'"),
+    ("seed-variant-loading", "study:\n  loadings:\n    cycle: [tread, tread-eta1.5-seed]\n", None,
+     "study.loadings.cycle[1] = 'tread-eta1.5-seed'"),
+    ("seed-variant-claim6", "study:\n  claim6:\n    anchor_variants: [tread-eta0.5-seed]\n", None,
+     "study.claim6.anchor_variants[0]"),
+    ("seed-variant-sweep", "sensitivity:\n  points:\n    lowloss: {material: {loss_scale: 0.3, loss_anchor: null}}\n",
+     None, "sensitivity.points.lowloss.material"),
+    ("seed-variant-target", None, "results-test/contact/iso10844/tread-eta1.5-seed/dynamic_500.nc",
+     "'tread-eta1.5-seed'"),
+    ("causal-not-passive", "materials:\n  tread-eta0.5: {base: tread, loss_scale: 4.5, loss_anchor: 1000.0}\n", None,
+     "materials.tread-eta0.5.loss_scale"),
 ]
+
+#: The issue-24 cases: the message also names the causal alternative.
+SEED_CASES = ("seed-variant-study", "seed-variant-loading", "seed-variant-claim6", "seed-variant-sweep",
+              "seed-variant-target")
 
 #: The first N_SNAKEMAKE cases also run through a real `snakemake -n`.
 N_SNAKEMAKE = 32
+#: The cases that run through a real `snakemake -n`: the first N_SNAKEMAKE and issue 24's.
+SNAKEMAKE_CASES = CASES[:N_SNAKEMAKE] + [c for c in CASES if c[0] in SEED_CASES + ("causal-not-passive",)]
 #: Cases also run for real (no -n): planning must stop them before any job.
 REAL_RUNS = {"n_fft", "accel-labels"}
 
@@ -183,7 +202,7 @@ def workdir(tmp_path_factory):
 def outcomes(workdir):
     """Run the snakemake cases (two at a time); the results trees are compared before and after."""
     before = _digest(workdir)
-    cases = CASES[:N_SNAKEMAKE]
+    cases = SNAKEMAKE_CASES
     real = [c for c in CASES if c[0] in REAL_RUNS]
     with ThreadPoolExecutor(max_workers=2) as pool:
         dry = dict(zip([c[0] for c in cases], pool.map(lambda c: _run(workdir, c), cases)))
@@ -200,7 +219,7 @@ _TARGETS = [
 
 
 def _plan_in_process(workdir: Path, case) -> str:
-    """What common.smk does at planning time, plus check_job for a target; returns the error message."""
+    """What common.smk (and sensitivity.smk) do at planning time, plus check_job for a target; returns the error message."""
     from snakemake.utils import validate
 
     from tyreroad import config as C
@@ -215,6 +234,7 @@ def _plan_in_process(workdir: Path, case) -> str:
         C.validate_schema(cfg, workdir / "workflow/schemas/config.schema.yaml")
         validate(cfg, str(workdir / "workflow/schemas/config.schema.yaml"))
         C.check_config(cfg, base_dir=workdir)
+        C.sensitivity_points(cfg, workdir / "workflow/schemas/config.schema.yaml")  # as workflow/rules/sensitivity.smk
         if target is not None:
             rel = target.split("/", 1)[1]
             for pattern, _rule in _TARGETS:
@@ -254,7 +274,7 @@ def _error_section(out: str) -> list[str]:
     return [line for line in lines if not line.strip().startswith("File ") and line.strip()]
 
 
-@pytest.mark.parametrize("case", CASES[:N_SNAKEMAKE], ids=[c[0] for c in CASES[:N_SNAKEMAKE]])
+@pytest.mark.parametrize("case", SNAKEMAKE_CASES, ids=[c[0] for c in SNAKEMAKE_CASES])
 def test_snakemake_n_stops_with_a_clear_message(outcomes, case):
     code, out = outcomes["dry"][case[0]]
     assert code != 0, out[-2000:]
@@ -290,3 +310,12 @@ def test_border_nan_message_suggests_a_crop_window(workdir):
     msg = _plan_in_process(workdir, next(c for c in CASES if c[0] == "scan-border-nan"))
     # rows 0-11 are NaN: the largest NaN-free window starts at x = 12 steps and is 508 x 520 samples
     assert f"crop: {{origin: [{12 * STEP:.6g}, 0], size: [{508 * STEP:.6g}, {520 * STEP:.6g}]}}" in msg, msg
+
+
+@pytest.mark.parametrize("cid", SEED_CASES)
+def test_a_seed_variant_in_the_time_domain_names_the_causal_alternative(outcomes, cid):
+    """snakemake -n stops with the key, the material and the alternative `loss_anchor: ...` (issue 24)."""
+    code, out = outcomes["dry"][cid]
+    assert code != 0
+    section = " ".join(_error_section(out)[:4])
+    assert "not causal" in section and ".loss_anchor: 1000.0" in section, out[-3000:]

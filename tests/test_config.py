@@ -132,7 +132,7 @@ def test_default_study_settings_build_from_the_validated_config(config):
     assert solver.quasistatic_step == 1e-5 and solver.d_max == 2.5e-4
     assert GreensSettings.from_config(cfg["greens"]).n_lags == 256
     assert SpringModel.from_config(cfg["springs"]).zeta_step == 1e-6
-    assert [material_from_config(name, cfg["materials"]).thickness for name in cfg["materials"]] == [0.01] * 5
+    assert [material_from_config(name, cfg["materials"]).thickness for name in cfg["materials"]] == [0.01] * len(cfg["materials"])
 
 
 def test_planning_takes_the_quasistatic_step_default_from_the_solver():
@@ -219,9 +219,10 @@ def test_stage_modules_follow_imports_and_hash_the_source(tmp_path):
     (pkg / "greens.py").write_text((pkg / "greens.py").read_text() + "\n# a change\n")
     after = {s: P.source_hash(s, pkg) for s in P.STAGE_MODULES}
     # the sweep computes its points' Green's functions itself; K*(f) evaluates the element FRF (greens.ElementFRF),
-    # and the report and figure 9 read its settings from tyreroad.stiffness, which imports it
+    # and the report and figure 9 read its settings from tyreroad.stiffness, which imports it; claim 6's seed
+    # variants get their K* from the element FRF too
     assert {s for s in before if before[s] != after[s]} == {"greens", "sensitivity", "stiffness_spectrum", "report",
-                                                            "stiffness_figure"}
+                                                            "stiffness_figure", "claim6"}
     (pkg / "io.py").write_text((pkg / "io.py").read_text() + "\n# a change\n")
     assert all(P.source_hash(s, pkg) != after[s] for s in P.STAGE_MODULES)  # every stage writes through io
 
@@ -336,3 +337,95 @@ def test_every_shipped_overlay_runs_its_surfaces_and_plans_the_rest(overlay, tmp
                           cwd=tmp_path, capture_output=True, text=True, timeout=600)
     assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-3000:]
     assert "prepare_surface" in proc.stdout + proc.stderr
+
+
+# --------------------------------------------------------------------------------------------
+# causal loss variants in the time domain (issue 24)
+# --------------------------------------------------------------------------------------------
+def _planned(cfg):
+    cfg = copy.deepcopy(cfg)
+    validate(cfg, SCHEMA)
+    C.check_config(cfg)
+    C.sensitivity_points(cfg, SCHEMA)
+    return cfg
+
+
+@pytest.mark.parametrize("overlay", [None, "test.yaml", "footprint.yaml"])
+def test_every_material_reaching_a_time_domain_run_is_causal(overlay):
+    """Every material of the shipped configs that a time-domain stage runs is causal, and the seed's
+    constant-|E| variants the default config keeps reach no time-domain stage."""
+    from tyreroad.sensitivity import SensitivitySettings, loss_variant_preset, point_material_preset, scale_moduli
+
+    files = [ROOT / "config" / "config.yaml"] + ([ROOT / "config" / overlay] if overlay else [])
+    cfg = _planned(load_config(*files))
+    mats = cfg["materials"]
+    used = C.time_domain_materials(cfg)
+    names = {m for _, m, _ in used}
+    assert {"tread-eta0.5", "tread-eta1.5"} <= names or overlay
+    for key, name, _ in used:
+        assert material_from_config(name, mats).is_causal, key
+    seeds = {n for n in mats if not material_from_config(n, mats).is_causal}
+    assert seeds == {"tread-eta0.5-seed", "tread-eta1.5-seed"}
+    assert not seeds & names
+    # the sweep: every point's material and its loss variants
+    sweep = SensitivitySettings.from_config(cfg["sensitivity"])
+    from tyreroad.pipeline import resolved_material_config
+
+    base = resolved_material_config(cfg["study"]["reference_material"], mats)
+    for name, point in sweep.points.items():
+        preset = scale_moduli(point_material_preset(base, point["material"]), 1.0)
+        assert material_from_config(name, {name: preset}).is_causal, name
+        for s in sweep.loss_scales:
+            assert material_from_config(name, {name: loss_variant_preset(preset, s, sweep)}).is_causal, (name, s)
+
+
+@pytest.mark.parametrize("where, mutate", [
+    ("study.materials[1]", lambda c: c["study"].update(materials=["tread", "tread-eta1.5-seed"])),
+    ("study.loadings.cycle[1]", lambda c: c["study"]["loadings"].update(cycle=["tread", "tread-eta0.5-seed"])),
+    ("rolling.materials[2]", lambda c: c["rolling"].update(materials=["tread", "tread-rho2", "tread-eta0.5-seed"])),
+    ("study.claim6.anchor_variants[0]", lambda c: c["study"]["claim6"].update(anchor_variants=["tread-eta1.5-seed"])),
+    ("study.claim6.storage_checks[1]",
+     lambda c: c["study"]["claim6"].update(storage_checks=["tread-eta0.5-storage", "tread-eta0.5-seed"])),
+    ("study.materials[1]", lambda c: c["materials"]["tread-eta0.5"].pop("loss_anchor")),
+    ("sensitivity.points.lowloss.material",
+     lambda c: c["sensitivity"]["points"]["lowloss"]["material"].pop("loss_anchor")),
+])
+def test_a_seed_variant_in_a_time_domain_stage_stops_planning(config, where, mutate):
+    cfg = copy.deepcopy(config)
+    mutate(cfg)
+    with pytest.raises(ConfigError) as err:
+        _planned(cfg)
+    msg = str(err.value)
+    assert msg.startswith(where), msg
+    assert "not causal" in msg and ".loss_anchor: 1000.0" in msg, msg
+
+
+@pytest.mark.parametrize("target, wildcards", [
+    ("results/greens/tread-eta0.5-seed.nc", {"material": "tread-eta0.5-seed"}),
+    ("results/contact/iso10844/tread-eta1.5-seed/dynamic_500.nc",
+     {"surface": "iso10844", "material": "tread-eta1.5-seed", "mode": "dynamic", "accel": "500"}),
+    ("results/loading/iso10844/tread-eta1.5-seed/quasistatic_cycle.nc",
+     {"surface": "iso10844", "material": "tread-eta1.5-seed", "mode": "quasistatic", "loading": "cycle"}),
+])
+def test_a_requested_time_domain_target_of_a_seed_variant_is_refused(config, target, wildcards):
+    cfg = _planned(config)
+    with pytest.raises(ConfigError, match=r"not causal.*loss_anchor: 1000\.0"):
+        C.check_job(cfg, target, wildcards)
+    # its springs (quasi-static modulus only) are no time-domain stage
+    C.check_job(cfg, "results/springs/iso10844/tread-eta0.5-seed.nc",
+                {"surface": "iso10844", "material": "tread-eta0.5-seed"})
+
+
+def test_claim6_section_is_checked(config):
+    for mutate, expected in [
+        (lambda c: c["study"]["claim6"].update(seed_variants=["tread-eta0.5"]), "study.claim6.seed_variants[0]"),
+        (lambda c: c["study"]["claim6"].update(springs_checks=["nothing"]), "study.claim6.springs_checks[0]"),
+        (lambda c: c["study"]["claim6"].update(preload=3.0e-4), "study.claim6.preload"),
+        (lambda c: c["study"]["claim6"].update(frequency=3.0e4), "study.claim6.frequency"),
+        (lambda c: c["materials"].update({"tread-eta1.5": {"base": "tread", "loss_scale": 4.5, "loss_anchor": 1.0e3}}),
+         "materials.tread-eta1.5.loss_scale"),
+    ]:
+        cfg = copy.deepcopy(config)
+        mutate(cfg)
+        with pytest.raises(ConfigError, match=expected.replace(".", r"\.").replace("[", r"\[")):
+            _planned(cfg)

@@ -418,3 +418,52 @@ def test_a_tables_extrapolated_relaxed_modulus_is_stated(caplog):
     with caplog.at_level(logging.WARNING, logger="tyreroad.material"):
         given = material_from_config("dma", {"dma": {**table, "quasi_static_modulus": 2.0e7}})
     assert given.quasi_static_modulus == 2.0e7 and "relaxed modulus" not in caplog.text
+
+
+def test_default_variants_are_causal_and_passive_up_to_fs2_and_beyond():
+    """Every material of the default config that is not one of the seed's frequency-domain variants is causal;
+    each phase-scaled one has s arg E < pi/2 (Im E_s >= 0) at every frequency up to fs/2 and far beyond."""
+    mats = _variants()
+    ref = material_from_config("tread", mats)
+    w = 2 * np.pi * np.logspace(-3, np.log10(25600.0), 400)
+    w_far = 2 * np.pi * np.logspace(-6, 9, 1501)
+    for name in mats:
+        m = material_from_config(name, mats)
+        if name.endswith("-seed") or name.startswith("seed"):
+            assert not m.is_causal and m.loss_anchor is None
+            continue
+        assert m.is_causal, name
+        if m.loss_anchor is not None:
+            assert np.all(m.loss_scale * np.angle(ref.modulus(w_far)) < 0.5 * np.pi), name
+            assert np.all(m.modulus(w).imag >= 0) and np.all(m.modulus(w).real > 0), name
+
+
+def test_modulus_scale_and_a_variants_own_quasi_static_modulus():
+    mats = _variants()
+    ref = material_from_config("tread", mats)
+    w = 2 * np.pi * np.logspace(0, 4.4, 20)
+    mats["k"] = {"base": "tread", "modulus_scale": 0.96}
+    mats["kk"] = {"base": "k", "modulus_scale": 0.5, "loss_scale": 1.5, "loss_anchor": 1000.0}
+    mats["qs"] = {"base": "tread", "quasi_static_modulus": 4.0e7}
+    k = material_from_config("k", mats)
+    np.testing.assert_allclose(k.modulus(w), 0.96 * ref.modulus(w), rtol=1e-14)
+    np.testing.assert_allclose(k.loss_factor(w), ref.loss_factor(w), rtol=1e-12)
+    assert k.quasi_static_modulus == pytest.approx(0.96 * ref.quasi_static_modulus, rel=1e-14)
+    np.testing.assert_allclose(k.laplace_modulus(1j * w), k.modulus(w), rtol=1e-12)
+    kk = material_from_config("kk", mats)
+    np.testing.assert_allclose(kk.modulus(w), 0.48 * material_from_config("causal1.5", mats).modulus(w), rtol=1e-12)
+    assert material_from_config("kk", {"kk": kk.config}) == kk
+    q = material_from_config("qs", mats)
+    assert q.quasi_static_modulus == 4.0e7
+    np.testing.assert_allclose(q.modulus(w), ref.modulus(w), rtol=0)  # E(w) and the dynamic kernel: tread's
+    assert material_from_config("qs", {"qs": q.config}) == q
+
+
+def test_causality_error_names_the_key_the_material_and_the_alternative():
+    from tyreroad.material import causality_error
+
+    mats = _variants()
+    assert causality_error(material_from_config("causal1.5", mats), "study.materials[2]") is None
+    msg = causality_error(material_from_config("seed1.5", mats), "study.materials[2]", "a contact run")
+    assert msg.startswith("study.materials[2] = 'seed1.5'")
+    assert "materials.seed1.5.loss_anchor: 1000.0" in msg and "not causal" in msg

@@ -13,6 +13,8 @@ import math
 from dataclasses import dataclass, replace
 from typing import Callable
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 import xarray as xr
@@ -476,3 +478,89 @@ def test_stability_section_lists_the_cases_past_the_fs2_limit():
                                    errors="ignore") for r in runs], SETTINGS)
     assert stability_section(ReportContext(claims=ClaimContext(quiet, SETTINGS, VARIANTS)))[2].startswith(
         "No dynamic case")
+
+
+# ----------------------------------------------------------------------------------------------
+# claim 6 by loss-variant definition (issue 24): the table from a synthetic claim-6 dataset
+# ----------------------------------------------------------------------------------------------
+def _claim6_synthetic(ksat_delta, kstar_delta, controls):
+    """results/claim6.nc of the default config's materials, with prescribed K_sat and K' changes.
+
+    ``ksat_delta``: material -> Delta K_sat; ``kstar_delta``: seed variant (and its two controls,
+    ``<seed>-storage-control`` / ``<seed>-loss-control``) -> Delta K'."""
+    from tyreroad.claim6 import Claim6Settings, claim6_dataset
+    from tyreroad.config import load_config
+    from tyreroad.material import material_from_config
+
+    cfg = load_config(Path(__file__).resolve().parents[1] / "config" / "config.yaml")
+    settings = Claim6Settings.from_config(cfg["study"]["claim6"])
+    names = ["tread", "tread-eta0.5", "tread-eta1.5", *settings.seed_variants, *settings.time_domain]
+    materials = {n: material_from_config(n, cfg["materials"]) for n in names}
+    ksat = {"tread": 2.75e6, **{n: 2.75e6 * (1 + d) for n, d in ksat_delta.items()}}
+    k_star = {"tread": complex(3.0e6, 1.0e6), **{n: complex(3.0e6 * (1 + d), 1.0e6) for n, d in kstar_delta.items()},
+              **{n: complex(3.0e6 * (1 + d), 1.0e6) for n, d in controls.items()}}
+    return claim6_dataset(materials, "tread", ksat, k_star, settings, 500.0, ["tread-eta0.5", "tread-eta1.5"])
+
+
+#: Delta K_sat of a synthetic study shaped like the measured default study (issue 24): the default anchor's variants
+#: move their relaxed modulus (+72 % / -42 %) and with it the springs, which account for most of their ~24 %;
+#: the relaxed-modulus anchor's change |E| in the band by -40 % / +65 %; the seed's K' is a near-cancellation.
+C6_KSAT = {"tread-eta0.5": 0.2395, "tread-eta1.5": -0.2314, "tread-eta0.5-a0": -0.278, "tread-eta1.5-a0": 0.320,
+           "tread-eta0.5-storage": 0.0244, "tread-eta1.5-storage": -0.0403,
+           "tread-eta0.5-springs": 0.1962, "tread-eta1.5-springs": -0.2154,
+           "tread-eta0.5-layer": 0.0280, "tread-eta1.5-layer": -0.0290}
+C6_KSTAR = {"tread-eta0.5-seed": -0.0009, "tread-eta1.5-seed": 0.0014}
+C6_CONTROLS = {"tread-eta0.5-seed-storage-control": -0.0103, "tread-eta0.5-seed-loss-control": 0.0097,
+               "tread-eta1.5-seed-storage-control": 0.0161, "tread-eta1.5-seed-loss-control": -0.0139}
+
+
+def test_claim6_table_rows_verdicts_and_checked_signs():
+    from tyreroad.claim6 import claim6_rows
+
+    ds = _claim6_synthetic(C6_KSAT, C6_KSTAR, C6_CONTROLS)
+    assert list(ds["definition"].values[:2]) == ["causal", "causal"]
+    rows = claim6_rows(ds, 0.10, 0.005)
+    assert [r["anchor"] for r in rows] == [None, 1000.0, 0.0]  # seed first, then the default anchor
+    seed, default, relaxed = rows
+    assert seed["deltas"] == pytest.approx({0.5: -0.0009, 1.5: 0.0014})
+    assert seed["verdict"] == "fails"  # the seed's direction, but the largest |Delta| < 0.5 %
+    assert seed["checked"] and seed["sign"].count("nearly cancel") == 2
+    assert "the sign is that of the storage compliance" in seed["sign"]
+    assert default["default"] and default["verdict"] == "fails"  # |Delta| ~ 24 % > 10 %
+    assert default["deltas"] == pytest.approx({0.5: 0.2395, 1.5: -0.2314})
+    assert default["checked"] and default["sign"].count("the springs' (relaxed) modulus decides") == 2
+    assert default["sign"].count("the layer's own part follows E′ in the band") == 2
+    assert relaxed["verdict"] == "fails"  # |Delta| ~ 30 % > 10 %
+    assert relaxed["checked"] and "springs and relaxed modulus are the reference's" in relaxed["sign"]
+    # the control values come from the matching check runs (E'(1 kHz), the relaxed modulus, the layer)
+    row = ds.sel(variant="tread-eta1.5")
+    assert float(row["storage_control"]) == pytest.approx(-0.0403) and str(row["storage_control_name"].values) == \
+        "tread-eta1.5-storage"
+    assert float(row["springs_control"]) == pytest.approx(-0.2154)
+    assert float(row["layer_control"]) == pytest.approx(-0.029) and str(row["layer_control_name"].values) == \
+        "tread-eta1.5-layer"
+    assert float(row["quasi_static_change"]) == pytest.approx(1.4548627e7 / 2.5e7 - 1, rel=1e-6)
+    assert float(row["storage_change"]) == pytest.approx(0.959718 - 1, abs=1e-6)
+
+
+def test_claim6_sign_not_accounted_for_is_said_so():
+    from tyreroad.claim6 import claim6_rows
+
+    ksat = dict(C6_KSAT, **{"tread-eta1.5-springs": 0.01, "tread-eta1.5-layer": 0.01})  # controls of the wrong sign
+    rows = claim6_rows(_claim6_synthetic(ksat, C6_KSTAR, C6_CONTROLS), 0.10, 0.005)
+    default = rows[1]
+    assert not default["checked"] and "NOT accounted for" in default["sign"]
+
+
+def test_report_has_the_claim6_table(passing_study):
+    ds = _claim6_synthetic(C6_KSAT, C6_KSTAR, C6_CONTROLS)
+    text = build_report(passing_study, None, None, SETTINGS, VARIANTS, claim6=ds)
+    assert "## Claim 6 by loss-variant definition" in text
+    table = text.split("## Claim 6 by loss-variant definition")[1].split("\n## ")[0]
+    lines = [line for line in table.splitlines() if line.startswith("| ")]
+    assert lines[0].startswith("| definition | quantity | η×0.5 | η×1.5 | verdict | what decides the sign |")
+    assert lines[1].startswith("| seed: η scaled at constant \\|E\\|")
+    assert "| -0.09 % | +0.14 % | **fails** |" in lines[1]
+    assert "(default, figure 7) | ΔK_sat(a = 500 m/s²) | +23.95 % | -23.14 % | **fails** |" in lines[2]
+    assert "| -27.80 % | +32.00 % | **fails** |" in lines[3]
+    assert "## Claim 6 by loss-variant definition" not in build_report(passing_study, None, None, SETTINGS, VARIANTS)

@@ -78,6 +78,26 @@ def test_point_presets_and_modulus_scaling(cfg):
         S.check_points(S.SensitivitySettings.from_config({"points": {"bad": {"material": {"alpha": 1.5}}}}), ref)
 
 
+def test_loss_variants_are_causal_and_a_seed_point_is_refused(cfg):
+    """The sweep runs in the time domain: its loss variants scale the phase (|E| kept at loss_anchor, or at the
+    point material's own anchor), and a point whose material is a seed (constant-|E|) variant stops planning."""
+    ref = resolved_material_config("tread", cfg["materials"])
+    st = S.SensitivitySettings.from_config({"points": {"a": None}})
+    assert st.loss_anchor == 1000.0
+    v = S.loss_variant_preset(ref, 1.5, st)
+    assert v["loss_scale"] == 1.5 and v["loss_anchor"] == 1000.0
+    m = material_from_config("v", {"v": v})
+    assert m.is_causal and abs(m.modulus(2 * np.pi * 1000.0)) == pytest.approx(
+        abs(material_from_config("r", {"r": ref}).modulus(2 * np.pi * 1000.0)), rel=1e-13)
+    own = S.loss_variant_preset(dict(ref, loss_scale=0.3, loss_anchor=0.0), 0.5, st)
+    assert own["loss_scale"] == pytest.approx(0.15) and own["loss_anchor"] == 0.0
+    seed = S.SensitivitySettings.from_config({"points": {"lowloss": {"material": {"loss_scale": 0.3}}}})
+    with pytest.raises(ValueError, match=r"^sensitivity\.points\.lowloss\.material = 'lowloss': .*not causal.*"
+                                         r"sensitivity\.points\.lowloss\.material\.loss_anchor: 1000\.0"):
+        S.check_points(seed, ref)
+    S.check_points(S.SensitivitySettings.from_config(cfg["sensitivity"]), ref)  # the shipped sweep is causal
+
+
 def test_planned_points_and_files(cfg):
     assert S.planned_points({k: v for k, v in cfg.items() if k != "sensitivity"}) == {}
     with pytest.raises(ValueError, match="no 'sensitivity' section"):
@@ -120,7 +140,7 @@ def test_point_matches_the_study_of_the_same_runs(cfg, points):
     ref = resolved_material_config("tread", cfg["materials"])
     surface = prepare_surface("iso10844", cfg["surfaces"]["iso10844"])
     assert float(ds["modulus_factor"]) == 1.0 and int(ds["calibration_runs"]) == 1
-    high = dict(ref, loss_scale=1.5)
+    high = dict(ref, loss_scale=1.5, loss_anchor=1000.0)  # the sweep's loss variants are causal (issue 24)
     runs = [_direct_run(cfg, surface, preset, name, mode, a) for name, preset in (("ref", ref), ("high", high))
             for mode, a in (("quasistatic", 0.0), ("dynamic", 500.0))]
     settings = StudySettings.from_config({**{k: cfg["study"][k] for k in ("indentation_step", "saturation_range")},

@@ -83,8 +83,9 @@ def test_profile_plans_the_study(tmp_path):
     out = proc.stdout + proc.stderr
     assert proc.returncode == 0, out[-3000:]
     totals = [line.split() for line in out.splitlines() if line.startswith("total")]
-    # 5 materials x (3 + 1) runs, 5 materials x 2 cycle runs, 5 stiffness spectra + 20 other jobs
-    assert totals and int(totals[0][1]) == 55, out[-3000:]
+    # 5 materials x (3 + 1) runs, 5 materials x 2 cycle runs, 5 stiffness spectra + 20 other jobs; claim 6
+    # (issue 24): 8 more materials x (greens, springs, one dynamic run) and the claim6 job
+    assert totals and int(totals[0][1]) == 55 + 8 * 3 + 1, out[-3000:]
 
 
 def test_profile_requests_follow_the_rules_and_the_site(tmp_path):
@@ -97,9 +98,9 @@ def test_profile_requests_follow_the_rules_and_the_site(tmp_path):
     jobs = _planned_jobs(out)
     cluster_jobs = [(rule, res) for rule, res in jobs if rule in CLUSTER_RULES]
     assert Counter(rule for rule, _ in cluster_jobs) == {
-        "prepare_surface": 1, "element_springs": 5, "greens": 5, "contact": 20, "loading_run": 10,
+        "prepare_surface": 1, "element_springs": 5 + 8, "greens": 5 + 8, "contact": 20 + 8, "loading_run": 10,
         "stiffness_spectrum": 5,
-    }
+    }  # + 8: claim 6's anchor variants and control runs (issue 24), one dynamic run each
     for rule, res in cluster_jobs:
         # every other resource of the profile survives the site settings
         assert res["slurm_account"] == "acct1" and res["slurm_partition"] == "part2", (rule, res)

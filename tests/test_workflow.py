@@ -110,6 +110,8 @@ def test_full_tiny_study_produces_every_output(workdir):
         "stiffness_spectrum/iso10844/tread.nc",
         "stiffness_spectrum/iso10844/tread-rho2.nc",
         "figures/fig9_stiffness_spectrum.png",
+        "claim6.nc",  # issue 24: claim 6 by loss-variant definition
+        "contact/iso10844/tread-eta0.5-a0/dynamic_500.nc",
     ]
     missing = [p for p in expected if not (results / p).is_file()]
     assert not missing
@@ -118,6 +120,7 @@ def test_full_tiny_study_produces_every_output(workdir):
     work = dict(zip(loading["mode"].values.astype(str), loading["loading_work"].values))
     assert w["dynamic"] > 0.05 * work["dynamic"] and abs(w["quasistatic"]) <= 1e-6 * work["quasistatic"]
     assert "## Load-unload cycles: hysteresis" in (results / "report.md").read_text()
+    assert "## Claim 6 by loss-variant definition" in (results / "report.md").read_text()
 
 
 @pytest.mark.slow
@@ -188,6 +191,7 @@ def test_changed_package_line_replans_exactly_the_stages_that_run_it(workdir, pa
     assert proc.returncode == 0, out
     planned = _planned(out)
     materials = ("tread", "tread-eta0.5", "tread-rho2")
+    claim6 = ("tread-eta0.5-a0", "tread-eta0.5-storage", "tread-eta0.5-springs", "tread-eta0.5-layer")
     runs = {f"{RESULTS}/contact/iso10844/{m}/{mode}.nc" for m in materials for mode in ("quasistatic_0", "dynamic_500")}
     expected = {f"{RESULTS}/greens/{m}.nc" for m in materials} | runs | {
         f"{RESULTS}/study.nc", f"{RESULTS}/report.md",
@@ -199,6 +203,10 @@ def test_changed_package_line_replans_exactly_the_stages_that_run_it(workdir, pa
         # K*(f) evaluates the element FRF (greens.py) itself
         *(f"{RESULTS}/stiffness_spectrum/iso10844/{m}.nc" for m in materials),
         f"{RESULTS}/figures/fig9_stiffness_spectrum.png",
+        # claim 6 (issue 24): the test study's anchor variant and checks (greens and one dynamic run each), and
+        # the seed variant's K* from the element FRF
+        *(f"{RESULTS}/{kind}" for m in claim6 for kind in (f"greens/{m}.nc", f"contact/iso10844/{m}/dynamic_500.nc")),
+        f"{RESULTS}/claim6.nc",
     }
     assert planned == expected, planned ^ expected
     assert not any("/surface/" in p or "/springs/" in p for p in planned)

@@ -42,7 +42,8 @@ from . import scans
 from . import surface as S
 from .greens import GreensSettings
 from .loading import LoadingPreset, constant_acceleration_steps, uniform_grid_steps
-from .material import material_from_config
+from .claim6 import Claim6Settings
+from .material import causality_error, material_from_config
 from .rolling import RollingSettings
 from .sensitivity import planned_points, point_surface_spec
 from .solver import SolverSettings
@@ -62,6 +63,7 @@ __all__ = [
     "check_job",
     "sensitivity_points",
     "rolling_materials",
+    "time_domain_materials",
 ]
 
 
@@ -573,6 +575,79 @@ def check_config(config: Mapping[str, Any], base_dir: str | Path = ".") -> None:
         surface_plan(name, spec, base_dir)
     _check_rolling(config)
     _check_stiffness_spectrum(config)
+    _check_claim6(config)
+    _check_causality(config)
+
+
+def time_domain_materials(config: Mapping[str, Any]) -> list[tuple[str, str, str]]:
+    """Every material a time-domain stage of this config runs, with the key that sends it there.
+
+    Returns
+    -------
+    list of (key, material, use)
+        ``study.materials[i]`` (contact runs, the K* transient state), ``study.loadings.<preset>[i]``
+        (loading runs), ``rolling.materials[i]`` (rolling passes; rolling.materials defaults to
+        study.materials), ``study.claim6.anchor_variants[i]`` and ``study.claim6.storage_checks[i]``
+        (contact runs). The sensitivity sweep's materials are checked with its points
+        (:func:`sensitivity_points`).
+    """
+    study = config.get("study", {})
+    out = [(f"study.materials[{i}]", m, "a contact run") for i, m in enumerate(study.get("materials", []))]
+    for preset, names in (study.get("loadings") or {}).items():
+        out += [(f"study.loadings.{preset}[{i}]", m, "a loading run") for i, m in enumerate(names)]
+    if config.get("rolling") is not None:
+        names, _ = rolling_materials(config)
+        key = "rolling.materials" if "materials" in config["rolling"] else "rolling.materials (default: study.materials)"
+        out += [(f"{key}[{i}]", m, "a rolling pass") for i, m in enumerate(names)]
+    claim6 = study.get("claim6") or {}
+    for key in ("anchor_variants", "storage_checks", "springs_checks", "layer_checks"):
+        out += [(f"study.claim6.{key}[{i}]", m, "a contact run") for i, m in enumerate(claim6.get(key) or [])]
+    return out
+
+
+def _check_causality(config: Mapping[str, Any]) -> None:
+    """No material that is not causal (the seed's constant-|E| loss variant) reaches a time-domain stage."""
+    materials = config["materials"]
+    for key, name, use in time_domain_materials(config):
+        if name not in materials:
+            continue  # named by the reference checks
+        error = causality_error(material_from_config(name, materials), key, use)
+        if error is not None:
+            raise ConfigError(error)
+
+
+def _check_claim6(config: Mapping[str, Any]) -> None:
+    """``study.claim6``: its keys, its materials exist, the seed variants are the reference's loss variants
+    with the reference's relaxed modulus (their K* uses the reference's relaxed state), and f_c lies below fs/2."""
+    study = config["study"]
+    section = study.get("claim6")
+    if section is None:
+        return
+    try:
+        settings = Claim6Settings.from_config(section)
+    except ValueError as exc:
+        raise ConfigError(str(exc)) from None
+    materials = config["materials"]
+    for key in ("seed_variants", "anchor_variants", "storage_checks", "springs_checks", "layer_checks"):
+        for i, name in enumerate(getattr(settings, key)):
+            if name not in materials:
+                raise ConfigError(f"study.claim6.{key}[{i}] = {name!r}: not a preset in materials "
+                                  f"(have: {', '.join(sorted(materials))})")
+    ref = material_from_config(study["reference_material"], materials)
+    for i, name in enumerate(settings.seed_variants):
+        m = material_from_config(name, materials)
+        if m.loss_scale == 1.0 or m.loss_anchor is not None or not math.isclose(
+                m.quasi_static_modulus, ref.quasi_static_modulus, rel_tol=1e-9):
+            raise ConfigError(
+                f"study.claim6.seed_variants[{i}] = {name!r}: expected a seed loss variant of the reference "
+                f"{ref.name!r} (loss_scale != 1, no loss_anchor) with its quasi-static modulus "
+                f"({ref.quasi_static_modulus:.6g} Pa; got {m.quasi_static_modulus:.6g} Pa): its K* is taken about the "
+                "reference's relaxed preload state")
+    fs = _sample_rate(config)
+    if not settings.frequency < 0.5 * fs:
+        raise _fail("study.claim6.frequency", settings.frequency, f"a frequency below greens.sample_rate / 2 = {0.5 * fs:g} Hz")
+    if not settings.preload < _d_max(config):
+        raise _fail("study.claim6.preload", settings.preload, f"a preload below solver.d_max = {_d_max(config):g} m")
 
 
 def _check_stiffness_spectrum(config: Mapping[str, Any]) -> None:
@@ -733,6 +808,12 @@ def check_job(config: Mapping[str, Any], target: str, wildcards: Mapping[str, st
                     f"steps at greens.sample_rate = {fs:g} Hz; expected at most "
                     f"{2.0 * d_max * (fs / MIN_RUN_STEPS) ** 2:.4g} m/s^2"
                 )
+    if material is not None and (mode is not None or surface is None):
+        # a run (mode) or a time-domain kernel (the greens file: material only): causal materials only
+        error = causality_error(material_from_config(material, materials), target,
+                                "a time-domain kernel" if mode is None else "a time-domain run")
+        if error is not None:
+            raise ConfigError(error)
     if material is not None and mode is not None:
         d_max = _d_max(config)
         h = material_from_config(material, materials).thickness

@@ -45,6 +45,7 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
+import scipy.linalg
 import scipy.optimize
 import xarray as xr
 from scipy.spatial import ConvexHull
@@ -168,7 +169,9 @@ def patch_support(tables: np.ndarray, shape, phi: np.ndarray) -> np.ndarray:
         a = offset_matrix(tables[k, cx - (nx - 1): cx + nx, cy - (ny - 1): cy + ny])
         b, c = a.real.copy(), a.imag.copy()
         for j, f in enumerate(phi):
-            out[k, j] = np.linalg.eigvalsh(math.cos(f) * b - math.sin(f) * c)[0]
+            # the smallest eigenvalue alone (LAPACK evr): 3x cheaper than the whole spectrum on 400 x 400
+            out[k, j] = scipy.linalg.eigh(math.cos(f) * b - math.sin(f) * c, eigvals_only=True,
+                                          subset_by_index=[0, 0], check_finite=False)[0]
     return out
 
 

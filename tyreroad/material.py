@@ -36,8 +36,15 @@ E_s(w) = |E(2 pi f_a)|^(1 - s) E(w)^s (principal power), so arg E_s = s arg E (e
 and |E_s(2 pi f_a)| = |E(2 pi f_a)|: the anchor is the frequency whose |E| is kept (0: the relaxed
 modulus, E_s(0) = E(0)). E^s is analytic wherever E is, so E_s is causal; it is passive while
 s arg E < pi/2 at every frequency (checked when the preset is built).
-``density_scale`` r: rho -> r rho. A preset ``{base: <name>, loss_scale: s, density_scale: r}`` copies the
-base preset (resolved recursively) and multiplies its scales; both scales may also be set on a root preset.
+A variant may also set its own ``quasi_static_modulus`` (springs and quasi-static kernel only; E(w) and the
+dynamic kernel stay the base's): claim 6's springs control. ``density_scale`` r: rho -> r rho. ``modulus_scale`` k: E -> k E at every frequency (the loss factor
+unchanged; a numeric quasi_static_modulus is scaled too): the control of claim 6's sign check, which changes
+the storage modulus alone (issue 24). A preset ``{base: <name>, loss_scale: s, density_scale: r}`` copies the
+base preset (resolved recursively) and multiplies its scales; the scales may also be set on a root preset.
+
+Causality (:attr:`Material.is_causal`): every material is causal except a loss variant without an anchor
+(the seed's definition). Such a variant is fine for frequency-domain quantities (K*(f) about the relaxed
+state), and refused for time-domain runs at planning time (:func:`causality_error`, issue 24).
 
 Quasi-static modulus (key ``quasi_static_modulus``): ``zero_frequency`` (the default) is Re E(w -> 0) of the
 (scaled) model -- E0 for the fractional model, E_inf for the Maxwell model; or a number in Pa.
@@ -81,6 +88,7 @@ __all__ = [
     "MODELS",
     "material_from_config",
     "path_safe",
+    "causality_error",
     "shear_modulus",
     "pwave_modulus",
     "plane_strain_modulus",
@@ -95,8 +103,8 @@ _MODEL_KEYS = {
 }
 _OPTIONAL_MODEL_KEYS = {"table": ("fit_tolerance",)}
 _COMMON_KEYS = ("model", "poisson_ratio", "density", "thickness", "quasi_static_modulus")
-_SCALE_KEYS = ("loss_scale", "density_scale", "loss_anchor")
-_VARIANT_KEYS = ("base",) + _SCALE_KEYS
+_SCALE_KEYS = ("loss_scale", "density_scale", "loss_anchor", "modulus_scale")
+_VARIANT_KEYS = ("base",) + _SCALE_KEYS + ("quasi_static_modulus",)
 _TABLE_TERMS_PER_DECADE = 10
 _TABLE_DEFAULT_FIT_TOLERANCE = 0.02
 _PATH_SAFE = re.compile(r"[A-Za-z0-9][A-Za-z0-9.-]*")
@@ -269,6 +277,8 @@ class Material:
         ``"zero_frequency"`` or a modulus [Pa].
     config : dict
         The resolved preset (no ``base``; scales folded in) for provenance. Not part of equality.
+    modulus_scale : float
+        k [-]: E -> k E at every frequency (loss factor unchanged).
     lineage : tuple of str
         Preset names from this one down to its root preset (provenance; not part of equality).
     """
@@ -281,6 +291,7 @@ class Material:
     loss_scale: float = 1.0
     quasi_static: Any = "zero_frequency"
     loss_anchor: float | None = None
+    modulus_scale: float = 1.0
     config: dict = field(default_factory=dict, compare=False, hash=False, repr=False)
     lineage: tuple = field(default=(), compare=False)
 
@@ -291,13 +302,21 @@ class Material:
         E_s = |E| (1 + i s eta) / sqrt(1 + s^2 eta^2).
         """
         e = self.model.modulus(omega)
+        k = self.modulus_scale
         if self.loss_scale == 1.0:
-            return e
+            return k * e
         if self.loss_anchor is not None:
-            return self._anchor_modulus() ** (1.0 - self.loss_scale) * e**self.loss_scale
+            return k * self._anchor_modulus() ** (1.0 - self.loss_scale) * e**self.loss_scale
         eta = e.imag / e.real
         s_eta = self.loss_scale * eta
-        return np.abs(e) * (1.0 + 1j * s_eta) / np.sqrt(1.0 + s_eta * s_eta)
+        return k * np.abs(e) * (1.0 + 1j * s_eta) / np.sqrt(1.0 + s_eta * s_eta)
+
+    @property
+    def is_causal(self) -> bool:
+        """False only for the seed's loss variant (loss_scale != 1 at constant |E|, no ``loss_anchor``):
+        it breaks Kramers-Kronig, so a time-domain run of it depends on how its negative-time response
+        is cut off (issue 24). Every model and every phase-scaled (anchored) variant is causal."""
+        return self.loss_scale == 1.0 or self.loss_anchor is not None
 
     def _anchor_modulus(self) -> float:
         """|E(2 pi f_a)| of the unscaled model [Pa] (the modulus a causal loss variant keeps)."""
@@ -335,7 +354,8 @@ class Material:
             if continuation is None:
                 raise ValueError(f"material {self.name!r}: its modulus model {type(self.model).__name__} has no "
                                  "laplace_modulus")
-            return self._anchor_modulus() ** (1.0 - self.loss_scale) * continuation(s) ** self.loss_scale
+            return (self.modulus_scale * self._anchor_modulus() ** (1.0 - self.loss_scale)
+                    * continuation(s) ** self.loss_scale)
         if self.loss_scale != 1.0:
             raise ValueError(
                 f"material {self.name!r}: no Laplace-domain modulus E(s): loss_scale = {self.loss_scale:g} scales "
@@ -349,7 +369,7 @@ class Material:
                 f"material {self.name!r}: its modulus model {type(self.model).__name__} gives E(w) on the "
                 "frequency axis only (no laplace_modulus), so E(s) at complex s is not defined"
             )
-        return continuation(s)
+        return self.modulus_scale * continuation(s)
 
     def loss_factor(self, omega):
         """Loss factor eta(w) = Im E / Re E [-]."""
@@ -381,7 +401,7 @@ class Material:
         """Modulus used for the quasi-static kernel and (by default) the contact springs [Pa]."""
         if self.quasi_static == "zero_frequency":
             return float(np.real(self.modulus(0.0)))
-        return float(self.quasi_static)
+        return float(self.quasi_static) * self.modulus_scale
 
 
 # ----------------------------------------------------------------------------------------------------
@@ -535,7 +555,7 @@ def _build_model(name, cfg):
 
 
 def _resolve(name, section, chain):
-    """Return (root config dict with its own scales, total loss scale, total density scale, lineage)."""
+    """Return (root config dict, total loss scale, total density scale, anchor, total modulus scale, lineage)."""
     if name in chain:
         cycle = " -> ".join(chain + (name,))
         raise ValueError(f"materials.{chain[0]}: cyclic base chain {cycle}")
@@ -551,6 +571,7 @@ def _resolve(name, section, chain):
     chain = chain + (name,)
     loss = _number(name, "loss_scale", cfg.get("loss_scale", 1.0), low=0.0, low_open=False, expected=">= 0")
     dens = _number(name, "density_scale", cfg.get("density_scale", 1.0), low=0.0, expected="> 0")
+    mod = _number(name, "modulus_scale", cfg.get("modulus_scale", 1.0), low=0.0, expected="> 0")
     anchor = cfg.get("loss_anchor")
     if anchor is not None:
         anchor = _number(name, "loss_anchor", anchor, low=0.0, low_open=False,
@@ -564,9 +585,10 @@ def _resolve(name, section, chain):
         base = cfg["base"]
         if not isinstance(base, str):
             raise ValueError(f"{_key(name, 'base')} = {base!r}: expected a material preset name")
-        root, l_base, d_base, a_base, lineage = _resolve(base, section, chain)
-        return root, loss * l_base, dens * d_base, (a_base if anchor is None else anchor), (name,) + lineage
-    return cfg, loss, dens, anchor, (name,)
+        root, l_base, d_base, a_base, m_base, lineage = _resolve(base, section, chain)
+        return (root, loss * l_base, dens * d_base, (a_base if anchor is None else anchor), mod * m_base,
+                (name,) + lineage)
+    return cfg, loss, dens, anchor, mod, (name,)
 
 
 def _check_phase_scaling(name, model, loss_scale: float) -> None:
@@ -611,7 +633,7 @@ def material_from_config(name, materials_section) -> Material:
         )
     if not isinstance(materials_section, Mapping):
         raise ValueError(f"materials: expected a mapping of presets, got {type(materials_section).__name__}")
-    root, loss_scale, density_scale, loss_anchor, lineage = _resolve(name, materials_section, ())
+    root, loss_scale, density_scale, loss_anchor, modulus_scale, lineage = _resolve(name, materials_section, ())
     root_name = lineage[-1]
     model = root.get("model")
     if model is None:
@@ -630,10 +652,14 @@ def material_from_config(name, materials_section) -> Material:
     nu = _number(root_name, "poisson_ratio", root["poisson_ratio"], low=0.0, high=0.5, expected="in (0, 0.5)")
     rho = _number(root_name, "density", root["density"], low=0.0, expected="> 0 [kg/m^3]")
     h = _number(root_name, "thickness", root["thickness"], low=0.0, expected="> 0 [m]")
-    qs = root.get("quasi_static_modulus", "zero_frequency")
+    qs, qs_owner = root.get("quasi_static_modulus", "zero_frequency"), root_name
+    for preset in lineage[:-1]:  # a variant's own quasi_static_modulus (the nearest in the chain) wins
+        if "quasi_static_modulus" in materials_section[preset]:
+            qs, qs_owner = materials_section[preset]["quasi_static_modulus"], preset
+            break
     if qs != "zero_frequency":
         qs = _number(
-            root_name, "quasi_static_modulus", qs, low=0.0, expected="'zero_frequency' or a modulus > 0 [Pa]"
+            qs_owner, "quasi_static_modulus", qs, low=0.0, expected="'zero_frequency' or a modulus > 0 [Pa]"
         )
     built = _build_model(root_name, root)
 
@@ -641,6 +667,10 @@ def material_from_config(name, materials_section) -> Material:
     resolved.pop("density_scale", None)
     resolved["density"] = rho * density_scale
     resolved["loss_scale"] = loss_scale
+    if modulus_scale != 1.0:
+        resolved["modulus_scale"] = modulus_scale
+    else:
+        resolved.pop("modulus_scale", None)
     if loss_anchor is not None:
         resolved["loss_anchor"] = loss_anchor
     resolved["quasi_static_modulus"] = qs
@@ -653,6 +683,7 @@ def material_from_config(name, materials_section) -> Material:
         loss_scale=loss_scale,
         quasi_static=qs,
         loss_anchor=loss_anchor,
+        modulus_scale=modulus_scale,
         config=resolved,
         lineage=lineage,
     )
@@ -671,3 +702,33 @@ def material_from_config(name, materials_section) -> Material:
         )
     logger.debug("material %s resolved via %s: %s", name, " -> ".join(lineage), resolved)
     return material
+
+
+def causality_error(material: Material, key: str, use: str = "a time-domain run") -> str | None:
+    """Why ``material`` may not reach a time-domain stage, or None when it is causal (issue 24).
+
+    Parameters
+    ----------
+    material : Material
+        The resolved preset.
+    key : str
+        The config key that sends it there (e.g. ``study.materials[1]``), named first in the message.
+    use : str
+        What the key would run (contact runs, loading runs, ...).
+
+    Returns
+    -------
+    str or None
+        One paragraph: the key, the material, why it is refused and the causal alternative
+        ``materials.<name>.loss_anchor: 1000.0`` (0 keeps the relaxed modulus); None for a causal material.
+    """
+    if material.is_causal:
+        return None
+    base = material.lineage[0] if material.lineage else material.name
+    return (
+        f"{key} = {material.name!r}: this material scales eta at constant |E| (loss_scale {material.loss_scale:g}, the "
+        f"seed's definition) and is not causal: {use} of it would depend on how its negative-time response is cut "
+        f"off, so time-domain stages refuse it. Use the causal variant, materials.{base}.loss_anchor: 1000.0 (phase "
+        f"scaled, |E| kept at 1 kHz; 0 keeps the relaxed modulus), or the seed variant in frequency-domain "
+        f"quantities only (study.claim6.seed_variants)"
+    )

@@ -32,6 +32,7 @@ __all__ = [
     "run_contact",
     "run_study",
     "run_study_figures",
+    "run_claim6",
     "run_report",
     "run_stiffness_spectrum",
     "run_stiffness_figure",
@@ -64,7 +65,8 @@ def material_variants(
     """Group the study's materials into the loss-factor and density variants of ``reference``.
 
     A material is a loss (density) variant when its preset has ``base: <reference>`` and only a
-    ``loss_scale`` (``density_scale``). The reference itself is the scale-1 member of both groups.
+    ``loss_scale`` (and its ``loss_anchor``) (``density_scale``). The reference itself is the scale-1
+    member of both groups.
 
     Returns
     -------
@@ -76,7 +78,7 @@ def material_variants(
         preset = materials.get(name, {})
         if name == reference or preset.get("base") != reference:
             continue
-        extra = set(preset) - {"base", "loss_scale", "density_scale"}
+        extra = set(preset) - {"base", "loss_scale", "density_scale", "loss_anchor"}
         if extra:
             continue
         if "loss_scale" in preset and "density_scale" not in preset:
@@ -187,7 +189,7 @@ def run_greens(
     if settings.construction == "passive":
         from .construction import correct_greens
 
-        ds, correction = correct_greens(ds, shape=shape)
+        ds, correction = correct_greens(ds, shape=shape, n_theta=256, n_phi=8)
         logger.info("greens %s: %s", material_name, correction.summary())
     ds = _judge_kernel(ds, material, shape, settings.construction)
     provenance = {
@@ -338,6 +340,7 @@ def run_report(
     construction_ncs: Sequence[str | Path] = (),
     construction_greens_ncs: Sequence[str | Path] = (),
     spring_comparison: Mapping[str, Any] | None = None,
+    claim6_nc: str | Path | None = None,
 ) -> None:
     """``results/report.md``: the seed's claims checked against the measured numbers; given the
     stiffness-spectrum files, the section on K*(f; d0); given ``loading_nc`` (results/loading.nc),
@@ -361,6 +364,7 @@ def run_report(
         spectra=[io.read_dataset(p) for p in spectra_ncs],
         loading=None if loading_nc is None else io.read_dataset(loading_nc),
         constructions=_construction_studies(construction_ncs, construction_greens_ncs),
+        claim6=None if claim6_nc is None else io.read_dataset(claim6_nc),
     )
     if spring_comparison:
         from .report.spring_comparison import spring_comparison_section
@@ -382,6 +386,51 @@ def _construction_studies(study_ncs, greens_ncs) -> dict:
         greens = [io.read_dataset(g) for g in greens_ncs if Path(g).parent.parent.name == name]
         out[name] = (open_study(p), greens)
     return out
+
+
+def run_claim6(
+    surface_nc: str | Path,
+    springs_nc: str | Path,
+    greens_nc: str | Path,
+    contact_ncs: Sequence[str | Path],
+    materials_cfg: Mapping[str, Any],
+    study_cfg: Mapping[str, Any],
+    variants: Mapping[str, Any],
+    solver_cfg: Mapping[str, Any],
+    out_nc: str | Path,
+    threads: int = 1,
+) -> None:
+    """Stage ``claim6``: claim 6 by loss-variant definition (results/claim6.nc, :mod:`tyreroad.claim6`).
+
+    The seed variants' K*(f_c; d0) about the reference's relaxed state (surface, springs and greens of
+    the reference; frequency domain only) and of their two controls (:func:`tyreroad.claim6.seed_controls`);
+    K_sat of the reference, the study's loss variants, the anchor variants and the checks from their
+    dynamic runs at the highest study acceleration.
+    """
+    from .claim6 import Claim6Settings, claim6_dataset
+    from .claim6_runs import saturated_stiffness_of_runs, seed_controls, seed_storage_stiffness
+    from .contact import SolverSettings
+    from .material import material_from_config
+
+    settings = Claim6Settings.from_config(study_cfg.get("claim6"))
+    reference = study_cfg["reference_material"]
+    loss = [name for scale, name in variants.get("loss", []) if name != reference]
+    names = [reference, *loss, *settings.seed_variants, *settings.time_domain]
+    materials = {n: material_from_config(n, materials_cfg) for n in names}
+    solver = SolverSettings.from_config(solver_cfg)
+    surface, springs, greens = _solver_inputs(surface_nc, springs_nc, greens_nc)
+    k_star = seed_storage_stiffness(surface, springs, greens, [materials[n] for n in [reference, *settings.seed_variants]],
+                                    settings.frequency, settings.preload, solver, threads)
+    controls = [c for n in settings.seed_variants
+                for c in seed_controls(materials[reference], materials[n]).values()]
+    k_star.update(seed_storage_stiffness(surface, springs, greens, controls, settings.frequency, settings.preload,
+                                         solver, threads, same_relaxed_state=False))
+    ksat = saturated_stiffness_of_runs(list(contact_ncs), study_cfg, float(solver_cfg["d_max"]))
+    ds = claim6_dataset(materials, reference, ksat, k_star, settings, max(float(a) for a in study_cfg["accelerations"]),
+                        loss)
+    provenance = {"study": dict(study_cfg), "solver": dict(solver_cfg),
+                  "materials": {n: dict(materials[n].config) for n in names}}
+    io.write_dataset(ds, out_nc, provenance, stage="claim6")
 
 
 def run_loading(

@@ -6,8 +6,9 @@ road surface. This module re-runs the seed's experiment at one acceleration (def
 a set of *points*, each a variant of the study's reference material and surface, and measures for
 each point what the claims test (:mod:`tyreroad.report`):
 
-* claim 6: the K_sat change of the loss-factor variants (x0.5 / x1.5 at constant |E|, the seed's
-  method) -- sign and size;
+* claim 6: the K_sat change of the loss-factor variants (x0.5 / x1.5, causal: the phase scaled and |E|
+  kept at ``loss_anchor``, issue 24; the seed's constant-|E| variants are not causal and are refused here,
+  as in every time-domain stage) -- sign and size;
 * claim 7: the K_sat change of the density variant (x2) and the ripple ratio
   ripple(rho x2) / ripple(reference);
 * claim 5: the contact fraction at 0.15 mm and the line-fit change of K over the saturation range;
@@ -107,7 +108,7 @@ _MODULUS_KEYS = {
 _COMMON_MATERIAL_KEYS = ("poisson_ratio", "density", "thickness", "quasi_static_modulus")
 _POINT_KEYS = {"description", "material", "surface", "calibrate"}
 _KEYS = {"acceleration", "target_stiffness", "calibration_tolerance", "max_calibration_runs", "loss_scales",
-         "density_scale", "points"}
+         "density_scale", "points", "loss_anchor"}
 #: Frequencies at which the material is summarised in the table [Hz].
 SUMMARY_FREQUENCIES = (1000.0, 10000.0)
 #: Frequencies of the material curves stored per point (figure) [Hz].
@@ -134,6 +135,9 @@ class SensitivitySettings:
         The low and high loss-factor scale (the seed: 0.5 and 1.5) [1].
     density_scale : float
         Density scale of the density variant (the seed: 2) [1].
+    loss_anchor : float
+        f_a [Hz] of the loss variants (causal, :mod:`tyreroad.material`); a point material's own
+        ``loss_anchor`` wins (default 1 kHz, the study's).
     """
 
     points: dict = field(default_factory=dict)
@@ -143,6 +147,7 @@ class SensitivitySettings:
     max_calibration_runs: int = 4
     loss_scales: tuple[float, float] = (0.5, 1.5)
     density_scale: float = 2.0
+    loss_anchor: float = 1000.0
 
     @classmethod
     def from_config(cls, section: Mapping[str, Any] | None) -> "SensitivitySettings":
@@ -193,6 +198,7 @@ class SensitivitySettings:
                 "calibration_tolerance": float(section.get("calibration_tolerance", 0.01)),
                 "max_calibration_runs": int(section.get("max_calibration_runs", 4)),
                 "density_scale": float(section.get("density_scale", 2.0)),
+                "loss_anchor": float(section.get("loss_anchor", 1000.0)),
             }
         except (TypeError, ValueError) as exc:
             raise ValueError(f"sensitivity: numeric key with a non-numeric value: {exc}") from exc
@@ -201,6 +207,8 @@ class SensitivitySettings:
         for k in ("acceleration", "target_stiffness", "calibration_tolerance", "max_calibration_runs"):
             if not values[k] > 0:
                 raise ValueError(f"sensitivity.{k} must be positive, got {values[k]!r}")
+        if not (math.isfinite(values["loss_anchor"]) and values["loss_anchor"] >= 0):
+            raise ValueError(f"sensitivity.loss_anchor must be a frequency >= 0 [Hz], got {values['loss_anchor']!r}")
         if not (values["density_scale"] > 0 and values["density_scale"] != 1):
             raise ValueError(f"sensitivity.density_scale must be positive and not 1, got {values['density_scale']!r}")
         return cls(points=checked, loss_scales=loss, **values)
@@ -249,20 +257,37 @@ def scale_moduli(preset: Mapping[str, Any], factor: float) -> dict[str, Any]:
     return out
 
 
+def loss_variant_preset(preset: Mapping[str, Any], scale: float, settings: SensitivitySettings) -> dict[str, Any]:
+    """The loss variant of a point's (calibrated) preset: loss scale x ``scale``, causal (phase scaled,
+    |E| kept at the preset's own ``loss_anchor`` or else ``settings.loss_anchor``)."""
+    anchor = preset.get("loss_anchor")
+    return dict(preset, loss_scale=scale * float(preset.get("loss_scale", 1.0)),
+                loss_anchor=settings.loss_anchor if anchor is None else anchor)
+
+
 def check_points(settings: SensitivitySettings, reference_material: Mapping[str, Any]) -> None:
-    """Planning-time check: every point's material preset builds (calibration scaling included).
+    """Planning-time check: every point's material preset builds (calibration scaling included), and it
+    and its loss variants are causal (every run of the sweep is in the time domain, issue 24).
 
     Raises
     ------
     ValueError
         Naming ``sensitivity.points.<name>.material`` and the material error.
     """
+    from .material import causality_error
+
     for name, point in settings.points.items():
         preset = point_material_preset(reference_material, point["material"])
         try:
-            material_from_config(name, {name: scale_moduli(preset, 1.0)})
+            material = material_from_config(name, {name: scale_moduli(preset, 1.0)})
+            for scale in settings.loss_scales:
+                material_from_config(name, {name: loss_variant_preset(scale_moduli(preset, 1.0), scale, settings)})
         except (KeyError, ValueError) as exc:
             raise ValueError(f"sensitivity.points.{name}.material: {exc}") from exc
+        error = causality_error(material, f"sensitivity.points.{name}.material", "the sweep's contact runs")
+        if error is not None:
+            raise ValueError(error.replace(f"materials.{name}.loss_anchor",
+                                           f"sensitivity.points.{name}.material.loss_anchor"))
 
 
 def planned_points(config: Mapping[str, Any]) -> dict[str, dict[str, Any]]:
@@ -504,8 +529,7 @@ def run_point(
     lo_s, hi_s = settings.loss_scales
     runs = {"reference": ref}
     for label, scale in (("eta-low", lo_s), ("eta-high", hi_s)):
-        runs[label] = runner.run(name, dict(cal, loss_scale=scale * float(cal.get("loss_scale", 1.0))), "dynamic",
-                                 settings.acceleration)
+        runs[label] = runner.run(name, loss_variant_preset(cal, scale, settings), "dynamic", settings.acceleration)
     runs["rho-high"] = runner.run(name, dict(cal, density=float(cal["density"]) * settings.density_scale), "dynamic",
                                   settings.acceleration)
     runs["quasistatic"] = runner.run(name, cal, "quasistatic", 0.0)
@@ -576,7 +600,7 @@ _ATTRS = {
     "point": ("1", "sweep point"),
     "variant": ("1", "case of the point: calibrated reference, loss-factor low/high, density high, quasi-static"),
     "indentation": ("m", "indentation d"),
-    "loss_scale": ("1", "loss-factor scale of the loss variants (constant |E|)"),
+    "loss_scale": ("1", "loss-factor scale of the loss variants (causal: phase scaled, |E| kept at loss_anchor_Hz)"),
     "ripple_case": ("1", "case of the ripple measure"),
     "summary_frequency": ("Hz", "frequency of the material summary"),
     "frequency": ("Hz", "frequency of the material curves"),
@@ -618,6 +642,7 @@ def _annotate(ds: xr.Dataset, settings: SensitivitySettings, sat, eq_range) -> N
         "target_stiffness_N_m": settings.target_stiffness,
         "calibration_tolerance": settings.calibration_tolerance,
         "density_scale": settings.density_scale,
+        "loss_anchor_Hz": settings.loss_anchor,
         "saturation_range_m": np.asarray(sat, dtype=float),
         "equivalent_range_m": np.asarray(eq_range, dtype=float),
     })
@@ -693,7 +718,8 @@ def sensitivity_markdown(ds: xr.Dataset, timing: str | None = None) -> str:
         f"Each point changes the study's reference material or surface, recalibrates the moduli so that the "
         f"dynamic K_sat at a = {a:g} m/s² is {float(ds.attrs.get('target_stiffness_N_m', 2.75e6)) * 1e-6:g} MN/m "
         f"(± {100 * float(ds.attrs.get('calibration_tolerance', 0.01)):g} %, unless `calibrate: false`), and "
-        f"measures claim 6 (K_sat change of η×{lo:g} and η×{hi:g} at constant |E|), claim 7 (K_sat change and "
+        f"measures claim 6 (K_sat change of η×{lo:g} and η×{hi:g}, causal: phase scaled, |E| kept at "
+        f"{float(ds.attrs.get('loss_anchor_Hz', 1000.0)):g} Hz), claim 7 (K_sat change and "
         f"ripple ratio of ρ×{float(ds.attrs.get('density_scale', 2.0)):g}) and claim 5 (contact fraction at "
         f"{t['c5_d'] * 1e3:g} mm, change of K over the saturation range), with the report's tests and thresholds.",
         "",
@@ -732,7 +758,7 @@ def sensitivity_markdown(ds: xr.Dataset, timing: str | None = None) -> str:
         e_hi = ds["storage_change_high_loss"].values
         text = (f"- **Claim 6, direction.** None of the {len(names)} points reproduces the seed's direction: "
                 f"ΔK_sat(η×{hi:g}) lies between {100 * d_hi.min():+.2f} % and {100 * d_hi.max():+.2f} %. "
-                f"With the seed's loss scaling at constant |E|, η×{hi:g} changes E′ by "
+                f"The causal loss scaling (|E| kept at {float(ds.attrs.get('loss_anchor_Hz', 1000.0)):g} Hz) η×{hi:g} changes E′ by "
                 f"{100 * e_hi.min():+.1f} % to {100 * e_hi.max():+.1f} % at "
                 + " and ".join(f"{x / 1e3:g}" for x in f) + " kHz")
         if np.all(np.sign(d_hi) == np.sign(e_hi[:, 0])):

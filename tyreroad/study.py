@@ -98,7 +98,7 @@ DEFAULT_SATURATION_RANGE = (1.8e-4, 2.5e-4)
 #: ``loadings`` (which loading presets run for which materials) is read by the workflow and
 #: aggregated by :mod:`tyreroad.hysteresis`, not by the seed study's aggregation.
 _STUDY_KEYS = {"surface", "reference_material", "materials", "accelerations", "indentation_step", "saturation_range",
-               "loadings", "compare_constructions"}
+               "loadings", "compare_constructions", "claim6"}
 
 
 def case_label(material: str, mode: str, accel: float) -> str:

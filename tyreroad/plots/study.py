@@ -179,7 +179,9 @@ def plot_variants(
         if k_ref is not None:
             ax2.plot(d, (k - k_ref) * 1e-3, color=color, ls=ls, lw=1.6)
     ax.set_ylabel("contact stiffness K [MN/m]")
-    ax.set_title(f"Contact stiffness, {what} variants, dynamic a = {accel:g} m/s²")
+    # the loss variants are causal (issue 24): the phase of E scaled, |E| kept at the default anchor
+    what = "causal loss variants" if kind == "loss" else f"{what} variants"
+    ax.set_title(f"Contact stiffness, {what}, dynamic a = {accel:g} m/s²")
     ax.set_ylim(bottom=0)
     ax.grid(alpha=0.3)
     ax.legend(loc="lower right", fontsize=8, title="curves overlap here: see K − K_ref below", title_fontsize=7.5)

@@ -22,6 +22,7 @@ from .sections import (
     claims_section,
     construction_section,
     config_section,
+    claim6_section,
     decides_section,
     equivalent_section,
     greens_by_material,
@@ -46,6 +47,7 @@ REPORT_SECTIONS: tuple[Section, ...] = (
     header_section,
     claims_section,
     decides_section,
+    claim6_section,
     equivalent_section,
     cases_section,
     stability_section,
@@ -79,6 +81,7 @@ def build_report(
     loading: xr.Dataset | None = None,
     thresholds: Mapping[str, float] | None = None,
     constructions: Mapping[str, tuple] | None = None,
+    claim6: xr.Dataset | None = None,
 ) -> str:
     """The markdown text of ``results/report.md``.
 
@@ -109,6 +112,9 @@ def build_report(
     constructions : mapping, optional
         {construction: (study dataset, greens datasets)} of the same study run with other kernel
         constructions (``study.compare_constructions``): the section that sets them beside this one.
+    claim6 : xarray.Dataset, optional
+        ``results/claim6.nc`` (:mod:`tyreroad.claim6`): the claim-6 table by loss-variant definition;
+        None omits it.
 
     Returns
     -------
@@ -143,6 +149,7 @@ def build_report(
         constructions={name: (study_ds, greens_by_material(g), evaluate_context(
             ClaimContext(study_ds, settings, variants, thresholds)))
             for name, (study_ds, g) in (constructions or {}).items()},
+        claim6=claim6,
     )
     return _assemble(REPORT_SECTIONS, ctx)
 

@@ -46,6 +46,7 @@ localrules:
     greens_figures,
     study,
     study_figures,
+    claim6,
     report,
     loading_study,
     hysteresis_figure,
@@ -184,6 +185,7 @@ def all_targets():
         f"{R}/figures/fig9_stiffness_spectrum.png",
         *loading_outputs(),
         *construction_outputs(),
+        *claim6_outputs(),
     ]
 
 
@@ -247,3 +249,23 @@ def loading_spec(wildcards):
 def material_variants():
     """Which study materials are the loss-factor and density variants of the reference material."""
     return _material_variants(STUDY["reference_material"], STUDY["materials"], config["materials"])
+
+
+# Claim 6 by loss-variant definition (rule claim6, workflow/rules/claim6.smk; issue 24).
+from tyreroad.claim6 import Claim6Settings as _Claim6Settings
+
+CLAIM6 = _Claim6Settings.from_config(STUDY.get("claim6"))
+
+
+def claim6_outputs():
+    """results/claim6.nc when the study has a claim6 section."""
+    return [f"{R}/claim6.nc"] if STUDY.get("claim6") is not None else []
+
+
+def claim6_runs():
+    """Dynamic runs at the highest study acceleration: the reference, the study's loss variants, the anchor
+    variants and the checks (the first two are also study runs)."""
+    ref = STUDY["reference_material"]
+    loss = [name for _, name in material_variants()["loss"] if name != ref]
+    a = fmt_accel(max(STUDY["accelerations"]))
+    return [f"{R}/contact/{STUDY_SURFACE}/{m}/dynamic_{a}.nc" for m in [ref, *loss, *CLAIM6.time_domain]]

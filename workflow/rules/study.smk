@@ -39,6 +39,7 @@ rule report:
         spectra=stiffness_spectra(),
         constructions=construction_outputs(),
         construction_greens=construction_greens(),
+        claim6=claim6_outputs(),
     output:
         md=f"{R}/report.md",
     log:
