@@ -594,6 +594,24 @@ class StageKernel(LayerKernel):
         theta = 2 * np.pi * f / self.sample_rate
         return stage_transfer(self.block_symbol(theta, shape), f, self.sample_rate)
 
+    def nyquist_critical_stiffness(self, shape, workers: int = 1) -> tuple[float, float]:
+        """(k_crit [N/m], lambda [m/N]) of the stage march at fs/2 for springs equal at the three stages:
+        I + k S(pi) is singular for k = -1 / lambda at a negative real eigenvalue lambda of the own block symbol
+        S(pi) (3 M x 3 M, real); inf where S(pi) has none (lambda is then its smallest real eigenvalue, or nan).
+        :func:`tyreroad.stability.nyquist_critical_stiffness` asks the kernel for this (the single-stage
+        G_d(-1) of ``lags`` says nothing of the stage march)."""
+        from .influence import offset_matrix
+
+        sym = self.block_symbol(np.array([np.pi]), shape)[0].real
+        m = shape[0] * shape[1]
+        big = np.block([[offset_matrix(sym[i, j]) for j in range(STAGES)] for i in range(STAGES)])
+        eig = np.linalg.eigvals(big)
+        real = eig[np.abs(eig.imag) <= 1e-9 * np.abs(eig).max()].real
+        if real.size == 0:
+            return math.inf, math.nan
+        lam = float(real.min())
+        return (-1.0 / lam if lam < 0.0 else math.inf), lam
+
     def relaxed(self) -> LayerKernel:
         """The static kernel of the fully relaxed layer, G(0)[dx, dy]."""
         return LayerKernel(self.static_table[:, :, None], True, self.sample_rate, element_size=self.element_size,
