@@ -67,6 +67,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.fft
+from numba import njit, prange
 import scipy.linalg
 
 from . import checks
@@ -225,12 +226,29 @@ class _Spatial:
         return scipy.fft.irfft2(spec, s=self.padded, axes=(-2, -1))[..., :nx, :ny]
 
 
+@njit(cache=True, parallel=True, fastmath=True)
+def _stage_accumulate(g, ring, start, n_terms, out):  # pragma: no cover - numba
+    """out[k, i, :] = sum_{t < n_terms} g[k, i, t] ring[k, start + t, :] (real spectra g, complex ring as
+    (re, im) pairs), parallel over frequency bins; fastmath only reorders the sums (inputs are finite)."""
+    n_bins = g.shape[0]
+    for k in prange(n_bins):
+        for i in range(g.shape[1]):
+            a = 0.0
+            b = 0.0
+            for t in range(n_terms):
+                w = g[k, i, t]
+                a += w * ring[k, start + t, 0]
+                b += w * ring[k, start + t, 1]
+            out[k, i, 0] = a
+            out[k, i, 1] = b
+
+
 class StageFFTHistory:
     """h_n = sum_{l=1}^{min(n, L-1)} W_l F_{n-l} over the stage fields, by 2-D FFT in space.
 
     The block tables' spectra (real: the tables are even) are held as (bins, 3, 3 (L - 1)) and a doubled
     ring of past stage spectra as (bins, 2 (L - 1) 3, 2) (real, imaginary), so that the lags of a step are one
-    contiguous window and the sum is one batched product (bins x 3 x 3 L x 2 per step).
+    contiguous window and the sum streams both (a numba kernel parallel over bins, bins x 3 x 3 L x 2 per step).
 
     Parameters
     ----------
@@ -253,6 +271,7 @@ class StageFFTHistory:
         self._g = np.ascontiguousarray(spec.reshape(self._bins, self._depth, STAGES, STAGES)
                                        .transpose(0, 2, 1, 3).reshape(self._bins, STAGES, self._depth * STAGES))
         self._ring = np.zeros((self._bins, 2 * max(self._depth, 1) * STAGES, 2))
+        self._acc = np.empty((self._bins, STAGES, 2))
         self._pos = 0
         self._steps = _StepCounter()
 
@@ -281,8 +300,8 @@ class StageFFTHistory:
         terms = min(n, self._depth)
         if terms == 0:
             return np.zeros(STAGES * nx * ny)
-        window = self._ring[:, self._pos * STAGES:(self._pos + terms) * STAGES, :]
-        acc = np.matmul(self._g[:, :, :terms * STAGES], window)  # (bins, 3, 2)
+        acc = self._acc
+        _stage_accumulate(self._g, self._ring, self._pos * STAGES, terms * STAGES, acc)  # (bins, 3, 2)
         spec = (acc[..., 0] + 1j * acc[..., 1]).T.reshape((STAGES,) + self._spec_shape)
         return self._fft.field(spec).reshape(-1)
 
