@@ -173,3 +173,22 @@ def test_hard_contact_reaches_the_rigid_punch_state():
     assert np.all(zeta[f_dyn > 0] <= f_dyn[f_dyn > 0] / 1e10 * (1 + 1e-9))
     assert np.all(f_dyn[zeta <= 0] == 0)
     assert fs2_alternation(res.force[N_RAMP:]) <= 1e-6
+
+
+def test_nonlinear_springs_load_hold_unload(stage_kernel):
+    """Stiffening springs k = 1e6 (1 + zeta / 0.1 um) N/m (1e6 ... 1e9 N/m on the table), so the stages of a step see
+    different stiffnesses: a ramp-hold-unload on a partial contact converges every step, holds without fs/2
+    alternation, and leaves the road."""
+    road = np.random.default_rng(5).uniform(-1e-4, 0.0, SHAPE)
+    step = 1e-7
+    zeta = np.arange(1001) * step
+    k_tab = np.broadcast_to(1e6 * (1 + zeta / 1e-7), (road.size, zeta.size)).copy()
+    f_tab = np.concatenate([np.zeros((road.size, 1)), np.cumsum(0.5 * (k_tab[:, 1:] + k_tab[:, :-1]) * step,
+                                                                axis=1)], axis=1)
+    d, _ = hold_path(600)
+    d = np.concatenate([d, D_HOLD * 0.5 * (1 + np.cos(np.pi * np.arange(1, N_RAMP + 1) / N_RAMP))])
+    res = solve_path(road, k_tab, f_tab, step, stage_kernel, d, SolverSettings(), time=np.arange(d.size) / FS)
+    hold = res.force[N_RAMP:N_RAMP + 600]
+    assert fs2_alternation(hold) <= 1e-6
+    assert 0 < res.contact_count[N_RAMP] < road.size and res.max_spring_stiffness.max() > 1e7
+    assert res.force[-1] == 0.0 and np.all(res.residual <= 1e-12)
