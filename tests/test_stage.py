@@ -192,3 +192,19 @@ def test_nonlinear_springs_load_hold_unload(stage_kernel):
     assert fs2_alternation(hold) <= 1e-6
     assert 0 < res.contact_count[N_RAMP] < road.size and res.max_spring_stiffness.max() > 1e7
     assert res.force[-1] == 0.0 and np.all(res.residual <= 1e-12)
+
+
+def test_dense_substrate_products():
+    """The substrate's FFT product is its dense W_0; a correction solves (I + W_0 diag(k)) delta = -r exactly."""
+    from tyreroad.stage import StageDenseSubstrate
+
+    rng = np.random.default_rng(4)
+    shape = (3, 4)
+    table = _even_tables(rng, shape, (3, 3)) * 1e-6
+    sub = StageDenseSubstrate.from_table(table, shape)
+    f = rng.standard_normal(3 * 12)
+    np.testing.assert_allclose(sub.instant(f), sub.g0 @ f, atol=1e-12 * np.abs(sub.g0 @ f).max())
+    k = rng.uniform(0, 1e6, f.size) * (rng.random(f.size) > 0.4)
+    r = rng.standard_normal(f.size) * 1e-6
+    delta, _ = sub.correction(k, r, polish=False)
+    np.testing.assert_allclose(delta + sub.g0 @ (k * delta), -r, atol=1e-12 * np.abs(r).max())

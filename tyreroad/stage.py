@@ -255,6 +255,20 @@ def _stage_accumulate(g, ring, start, n_terms, out):  # pragma: no cover - numba
             out[k, i, 1] = b
 
 
+class _BlockApply:
+    """v -> W v for a block offset table W[dx, dy, i, j] (stage-major vectors of 3 M), by 2-D FFT."""
+
+    def __init__(self, table: np.ndarray, shape):
+        self.shape = tuple(shape)
+        self._fft = _Spatial(shape)
+        self._spec = np.ascontiguousarray(np.moveaxis(self._fft.table_spectrum(table), (2, 3), (0, 1)))
+
+    def __call__(self, v: np.ndarray) -> np.ndarray:
+        nx, ny = self.shape
+        spec = self._fft.spectrum(np.asarray(v, dtype=float).reshape(STAGES, nx, ny))
+        return self._fft.field(np.einsum("ijxy,jxy->ixy", self._spec, spec)).reshape(-1)
+
+
 class StageFFTHistory:
     """h_n = sum_{l=1}^{min(n, L-1)} W_l F_{n-l} over the stage fields, by 2-D FFT in space.
 
@@ -369,8 +383,10 @@ class StageDenseSubstrate:
     same (linear springs in a hold: one factorisation).
     """
 
-    def __init__(self, matrix: np.ndarray):
+    def __init__(self, matrix: np.ndarray, apply=None):
         self.g0 = np.ascontiguousarray(matrix, dtype=float)
+        # W_0 v for whole vectors: the dense product, or (from_table) the same by FFT, 4x cheaper on 20 x 20
+        self._apply = apply if apply is not None else self.g0.__matmul__
         # the Newton driver scales its unknown at first contact with it (tyreroad.newton.solve_step): stiff
         # springs crossing zeta = 0 keep a unit diagonal of dR/dx (the stages' self compliances differ by
         # less than 2: their mean)
@@ -387,11 +403,11 @@ class StageDenseSubstrate:
         for i in range(STAGES):
             for j in range(STAGES):
                 big[i * m:(i + 1) * m, j * m:(j + 1) * m] = offset_matrix(table0[:, :, i, j])
-        return cls(big)
+        return cls(big, _BlockApply(table0, shape))
 
     def instant(self, force: np.ndarray) -> np.ndarray:
-        """W_0 F [m], one dense product (gathering the loaded columns costs more than multiplying zeros)."""
-        return self.g0 @ force
+        """W_0 F [m] (by FFT for a substrate from a table; gathering loaded columns costs more than zeros)."""
+        return self._apply(force)
 
     def begin_step(self) -> None:
         """Nothing to reset."""
@@ -411,7 +427,7 @@ class StageDenseSubstrate:
         delta_a = scipy.linalg.lu_solve(self._lu, -residual[active], check_finite=False)
         step = np.zeros(residual.size)
         step[active] = ka * delta_a
-        delta = -residual - self.g0 @ step
+        delta = -residual - self._apply(step)
         delta[active] = delta_a
         return delta, 0
 
