@@ -122,7 +122,8 @@ def stage_table(weights: np.ndarray, shape) -> np.ndarray:
 # --------------------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class StageTail:
-    """Lags l >= L of the stage kernel: Q[dx, dy] sum_k amplitude_k u_k r_k^(l-1) v_k^T (module docstring).
+    """Lags l >= L of the stage kernel: row i of W_l is R_i[dx, dy] times that of sum_k amplitude_k u_k r_k^(l-1) v_k^T
+    (the exact Radau-CQ images of the creep's retardation terms; module docstring).
 
     Attributes
     ----------
@@ -239,18 +240,21 @@ class _Spatial:
 
 
 @njit(cache=True, parallel=True, fastmath=True)
-def _stage_accumulate(g, ring, start, n_terms, out):  # pragma: no cover - numba
-    """out[k, i, :] = sum_{t < n_terms} g[k, i, t] ring[k, start + t, :] (real spectra g, complex ring as
-    (re, im) pairs), parallel over frequency bins; fastmath only reorders the sums (inputs are finite)."""
+def _stage_accumulate(g, ring_re, ring_im, start, n_terms, out):  # pragma: no cover - numba
+    """out[k, i] = sum_{t < n_terms} g[k, i, t] (ring_re + i ring_im)[k, start + t] as (re, im) in out[k, i, :]:
+    real kernel spectra, contiguous runs of the ring (the window of a step never wraps: the ring is doubled),
+    parallel over frequency bins; fastmath only reorders the sums (inputs are finite)."""
     n_bins = g.shape[0]
     for k in prange(n_bins):
+        r = ring_re[k, start:start + n_terms]
+        q = ring_im[k, start:start + n_terms]
         for i in range(g.shape[1]):
+            gi = g[k, i, :n_terms]
             a = 0.0
             b = 0.0
             for t in range(n_terms):
-                w = g[k, i, t]
-                a += w * ring[k, start + t, 0]
-                b += w * ring[k, start + t, 1]
+                a += gi[t] * r[t]
+                b += gi[t] * q[t]
             out[k, i, 0] = a
             out[k, i, 1] = b
 
@@ -273,7 +277,7 @@ class StageFFTHistory:
     """h_n = sum_{l=1}^{min(n, L-1)} W_l F_{n-l} over the stage fields, by 2-D FFT in space.
 
     The block tables' spectra (real: the tables are even) are held as (bins, 3, 3 (L - 1)) and a doubled
-    ring of past stage spectra as (bins, 2 (L - 1) 3, 2) (real, imaginary), so that the lags of a step are one
+    ring of past stage spectra as (bins, 2 (L - 1) 3) (real and imaginary parts apart), so that the lags of a step are one
     contiguous window and the sum streams both (a numba kernel parallel over bins, bins x 3 x 3 L x 2 per step).
 
     Parameters
@@ -296,14 +300,15 @@ class StageFFTHistory:
         # g[k, i, l * 3 + j]
         self._g = np.ascontiguousarray(spec.reshape(self._bins, self._depth, STAGES, STAGES)
                                        .transpose(0, 2, 1, 3).reshape(self._bins, STAGES, self._depth * STAGES))
-        self._ring = np.zeros((self._bins, 2 * max(self._depth, 1) * STAGES, 2))
+        self._ring_re = np.zeros((self._bins, 2 * max(self._depth, 1) * STAGES))
+        self._ring_im = np.zeros((self._bins, 2 * max(self._depth, 1) * STAGES))
         self._acc = np.empty((self._bins, STAGES, 2))
         self._pos = 0
         self._steps = _StepCounter()
 
     @property
     def nbytes(self) -> int:
-        return self._g.nbytes + self._ring.nbytes
+        return self._g.nbytes + self._ring_re.nbytes + self._ring_im.nbytes
 
     def record(self, n: int, force: np.ndarray) -> None:
         """Store the stage forces F_n [N], shape (3 M,) stage-major."""
@@ -316,8 +321,8 @@ class StageFFTHistory:
         d = self._depth
         self._pos = (self._pos - 1) % d
         for p in (self._pos, self._pos + d):
-            self._ring[:, p * STAGES:(p + 1) * STAGES, 0] = spec.real
-            self._ring[:, p * STAGES:(p + 1) * STAGES, 1] = spec.imag
+            self._ring_re[:, p * STAGES:(p + 1) * STAGES] = spec.real
+            self._ring_im[:, p * STAGES:(p + 1) * STAGES] = spec.imag
 
     def displacement(self, n: int) -> np.ndarray:
         """h_n [m], shape (3 M,) stage-major."""
@@ -327,7 +332,7 @@ class StageFFTHistory:
         if terms == 0:
             return np.zeros(STAGES * nx * ny)
         acc = self._acc
-        _stage_accumulate(self._g, self._ring, self._pos * STAGES, terms * STAGES, acc)  # (bins, 3, 2)
+        _stage_accumulate(self._g, self._ring_re, self._ring_im, self._pos * STAGES, terms * STAGES, acc)  # (bins, 3, 2)
         spec = (acc[..., 0] + 1j * acc[..., 1]).T.reshape((STAGES,) + self._spec_shape)
         return self._fft.field(spec).reshape(-1)
 
@@ -482,7 +487,7 @@ def stage_springs(springs: SpringTable) -> SpringTable:
     """The patch's springs tiled over the three stages (stage-major)."""
     def tile(a):
         a = np.asarray(a)
-        return np.ascontiguousarray(np.concatenate([a] * STAGES, axis=0))
+        return np.ascontiguousarray(np.tile(a.reshape(-1, a.shape[-1]), (STAGES, 1)))
 
     return dataclasses.replace(springs, stiffness=tile(springs.stiffness), force=tile(springs.force))
 
@@ -504,6 +509,8 @@ class StageRecorder:
         return self.recorder.result(self.loading, n_steps)
 
     def __getattr__(self, name):
+        if name == "recorder":  # not yet set (copy, unpickling)
+            raise AttributeError(name)
         return getattr(self.recorder, name)
 
 
