@@ -355,6 +355,7 @@ def run_loading_path(loading: Loading, springs, kernel: LayerKernel, settings: S
     substrate, history = kernel.collaborators(loading.shape, settings, threads, loading.n_steps)
     if recorder is None:
         recorder = RunRecorder(loading.n_steps, loading.shape, tangent=kernel.static)
+    loading, springs, recorder = kernel.march_view(loading, springs, recorder)
     return march(loading, springs, substrate, history, settings, recorder)
 
 

@@ -308,6 +308,12 @@ class LayerKernel:
             history = HistorySum([history, self.memory.history(shape, method, workers)])
         return substrate, history
 
+    def march_view(self, loading, springs, recorder):
+        """The loading, springs and recorder as the march solves them: as given, one unknown per element
+        and step. A kernel with several unknowns per element and step (the Radau IIA stages of
+        :class:`tyreroad.stage.StageKernel`) returns views that stack them; the march stays as it is."""
+        return loading, springs, recorder
+
     def frequency_response(self, frequencies, shape) -> np.ndarray:
         """G(dx, dy, f) [m/N] as complex offset tables, shape (n_f, 2 nx - 1, 2 ny - 1).
 

@@ -68,6 +68,9 @@ def nyquist_critical_stiffness(kernel: LayerKernel, shape, workers: int = 1) -> 
     lambda_min : float
         The smallest eigenvalue of G_d(-1) [m/N].
     """
+    own = getattr(kernel, "nyquist_critical_stiffness", None)
+    if own is not None:  # a kernel whose march is not single-stage says its own limit (tyreroad.stage)
+        return own(shape, workers)
     influence = OffsetInfluence(nyquist_table(kernel, shape), shape, workers)
     m = shape[0] * shape[1]
     if m <= FFT_THRESHOLD:
