@@ -84,8 +84,9 @@ def test_profile_plans_the_study(tmp_path):
     assert proc.returncode == 0, out[-3000:]
     totals = [line.split() for line in out.splitlines() if line.startswith("total")]
     # 5 materials x (3 + 1) runs, 5 materials x 2 cycle runs, 5 stiffness spectra + 20 other jobs; claim 6
-    # (issue 24): 8 more materials x (greens, springs, one dynamic run) and the claim6 job
-    assert totals and int(totals[0][1]) == 55 + 8 * 3 + 1, out[-3000:]
+    # (issue 24): 8 more materials x (greens, springs, one dynamic run) and the claim6 job; the seed's kernel
+    # construction beside the default (issue 23): 5 greens, 15 dynamic runs and their study
+    assert totals and int(totals[0][1]) == 55 + 8 * 3 + 1 + 5 + 15 + 1, out[-3000:]
 
 
 def test_profile_requests_follow_the_rules_and_the_site(tmp_path):

@@ -207,6 +207,10 @@ def test_changed_package_line_replans_exactly_the_stages_that_run_it(workdir, pa
         # the seed variant's K* from the element FRF
         *(f"{RESULTS}/{kind}" for m in claim6 for kind in (f"greens/{m}.nc", f"contact/iso10844/{m}/dynamic_500.nc")),
         f"{RESULTS}/claim6.nc",
+        # the seed's kernel construction beside the default (issue 23): its greens, dynamic runs and study
+        *(f"{RESULTS}/constructions/seed/greens/{m}.nc" for m in materials),
+        *(f"{RESULTS}/constructions/seed/contact/iso10844/{m}/dynamic_500.nc" for m in materials),
+        f"{RESULTS}/constructions/seed/study.nc",
     }
     assert planned == expected, planned ^ expected
     assert not any("/surface/" in p or "/springs/" in p for p in planned)

@@ -460,7 +460,14 @@ def _check_qlv_springs(config: Mapping[str, Any]) -> None:
     from .springs import resolve_spring_modulus
 
     model = SpringModel.from_config(springs)
-    for name in config.get("materials", {}):
+    study = config.get("study", {}) or {}
+    claim6 = study.get("claim6", {}) or {}
+    used = set(study.get("materials", [])) | set((config.get("rolling", {}) or {}).get("materials", []) or [])
+    used |= {m for names in (study.get("loadings", {}) or {}).values() for m in names}
+    used |= {m for key in ("anchor_variants", "storage_checks", "springs_checks", "layer_checks")
+             for m in claim6.get(key, []) or []}
+    # the presets that get springs files (a preset nobody runs is not checked)
+    for name in [m for m in config.get("materials", {}) if m in used]:
         material = material_from_config(name, config["materials"])
         try:
             check_relaxed_modulus(float(material.modulus([0.0]).real[0]),

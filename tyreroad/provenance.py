@@ -28,7 +28,7 @@ STAGE_MODULES: dict[str, tuple[str, ...]] = {
     "prepare_surface": ("log", "pipeline", "surface", "plots.surface"),
     "element_springs": ("log", "pipeline", "springs", "qlv", "material"),
     "springs_figure": ("log", "pipeline", "plots.springs"),
-    "greens": ("log", "pipeline", "greens", "material", "fidelity", "margin"),
+    "greens": ("log", "pipeline", "greens", "material", "construction", "fidelity", "margin"),
     "greens_figures": ("log", "pipeline", "plots.greens"),
     "contact": ("log", "pipeline", "contact", "material"),
     "study": ("log", "pipeline", "study"),

@@ -269,3 +269,25 @@ def claim6_runs():
     loss = [name for _, name in material_variants()["loss"] if name != ref]
     a = fmt_accel(max(STUDY["accelerations"]))
     return [f"{R}/contact/{STUDY_SURFACE}/{m}/dynamic_{a}.nc" for m in [ref, *loss, *CLAIM6.time_domain]]
+
+
+# The study repeated with other kernel constructions (study.compare_constructions; rules in constructions.smk).
+COMPARE_CONSTRUCTIONS = STUDY.get("compare_constructions", [])
+
+
+def construction_runs(construction):
+    runs = []
+    for material in STUDY["materials"]:
+        runs.append(f"{R}/contact/{STUDY_SURFACE}/{material}/quasistatic_0.nc")
+        runs += [f"{R}/constructions/{construction}/contact/{STUDY_SURFACE}/{material}/dynamic_{fmt_accel(a)}.nc"
+                 for a in STUDY["accelerations"]]
+    return runs
+
+
+def construction_outputs():
+    """The comparison studies and their greens files (report inputs), one per compared construction."""
+    return [f"{R}/constructions/{c}/study.nc" for c in COMPARE_CONSTRUCTIONS]
+
+
+def construction_greens():
+    return [f"{R}/constructions/{c}/greens/{m}.nc" for c in COMPARE_CONSTRUCTIONS for m in STUDY["materials"]]

@@ -2,29 +2,8 @@
 # that the report can show the seed's construction beside the default. Quasi-static runs do not depend
 # on the construction: each comparison study takes the study's own.
 
-COMPARE_CONSTRUCTIONS = STUDY.get("compare_constructions", [])
-
-
 wildcard_constraints:
     construction="|".join(COMPARE_CONSTRUCTIONS) or "no-construction",
-
-
-def construction_runs(construction):
-    runs = []
-    for material in STUDY["materials"]:
-        runs.append(f"{R}/contact/{STUDY_SURFACE}/{material}/quasistatic_0.nc")
-        runs += [f"{R}/constructions/{construction}/contact/{STUDY_SURFACE}/{material}/dynamic_{fmt_accel(a)}.nc"
-                 for a in STUDY["accelerations"]]
-    return runs
-
-
-def construction_outputs():
-    """The comparison studies and their greens files (report inputs), one per compared construction."""
-    return [f"{R}/constructions/{c}/study.nc" for c in COMPARE_CONSTRUCTIONS]
-
-
-def construction_greens():
-    return [f"{R}/constructions/{c}/greens/{m}.nc" for c in COMPARE_CONSTRUCTIONS for m in STUDY["materials"]]
 
 
 rule construction_greens:
