@@ -189,7 +189,11 @@ def run_greens(
     if settings.construction == "passive":
         from .construction import correct_greens
 
-        ds, correction = correct_greens(ds, shape=shape, n_theta=256, n_phi=8)
+        # designed against the patch's own matrices: up to the dense limit (20 x 20); a larger patch (a rolling
+        # strip, a footprint) gets the correction of its central 20 x 20 and, from the margin below, only the
+        # conservative circulant bound
+        design = (min(shape[0], 20), min(shape[1], 20))
+        ds, correction = correct_greens(ds, shape=design, n_theta=256, n_phi=8)
         logger.info("greens %s: %s", material_name, correction.summary())
     ds = _judge_kernel(ds, material, shape, settings.construction)
     provenance = {
