@@ -193,7 +193,14 @@ def run_greens(
         # strip, a footprint) gets the correction of its central 20 x 20 and, from the margin below, only the
         # conservative circulant bound
         design = (min(shape[0], 20), min(shape[1], 20))
-        ds, correction = correct_greens(ds, shape=design, n_theta=256, n_phi=8)
+        base = ds
+        ds, correction = correct_greens(base, shape=design, n_theta=256, n_phi=8)
+        if correction.slack < 0:
+            # 1.2e5 N/m not reachable within the fidelity budget (a low-loss variant): the floor instead,
+            # 1.5 x the stiffest default spring; the margin below measures what the kernel reaches
+            logger.warning("greens %s: the spring-safe correction misses k_target = %.3g N/m; designing for "
+                           "6.5e4 N/m instead", material_name, correction.k_target)
+            ds, correction = correct_greens(base, shape=design, n_theta=256, n_phi=8, k_target=6.5e4)
         logger.info("greens %s: %s", material_name, correction.summary())
     ds = _judge_kernel(ds, material, shape, settings.construction)
     provenance = {
