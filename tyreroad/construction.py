@@ -26,6 +26,15 @@ Construction
    infeasible (the LP's best is min p = -4.6e-6 m/N; see benchmarks/README): a causal correction that is
    real and large at z = -1 has a positive imaginary part (anti-dissipative) below it, and the fidelity
    band pins it down below 5 kHz. k_target = 1.2e5 N/m (3 x the default springs' 3.96e4) is feasible.
+   (Measured alternative: on the FRF/BDF2 blend at 0.3 fs as base, p > 0 is also infeasible, best min p
+   -6.5e-7 m/N, and k_target 2e5 needs a smaller correction, max |Delta| / |G_00| 1.6 above 5 kHz instead
+   of 18; but that base already misses the FRF by 1.5 % at near offsets (|G| >= 1 % |G_00|), so it is not
+   the default.)
+
+Cost: the design needs lambda_min of the M x M patch matrices at ~560 theta x 16 phi (M = 400: 2.5-6 min on
+the shared 2 cores, i.e. far more than today's greens stage of 3-5 s). The correction is the same identity
+shift on every patch, so taps designed on a 20 x 20 patch may be applied to a larger one (measured tread,
+k(fs/2) of the 20 x 20 taps: 1.24e5 N/m on 20 x 20, 1.06e5 on 40 x 40; today's 2.37e4 / 2.29e4).
 
 Whatever the correction adds is reported (:class:`Correction`): the taps, sum |c|, sum c, max |Delta| /
 |G_d,00| in the band and above it, Delta(-1), the base and corrected grid margins, LP rounds.
