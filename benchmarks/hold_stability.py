@@ -70,6 +70,15 @@ def main(argv=None):
             gcfg = cfg["greens"]
             ds = greens_dataset(mat, shape, float(surface.attrs.get("element_size", 1e-3)), gcfg["sample_rate"],
                                 gcfg["n_lags"], gcfg["n_fft"], construction=construction)
+            if construction == "passive":  # as the greens stage does (tyreroad.pipeline.run_greens)
+                from tyreroad.construction import correct_greens
+                from tyreroad.pipeline import PASSIVE_TARGETS
+
+                base = ds
+                for k_target in PASSIVE_TARGETS:
+                    ds, correction = correct_greens(base, shape=shape, n_theta=256, n_phi=8, k_target=k_target)
+                    if correction.slack >= 0:
+                        break
             ds = _judge_kernel(ds, mat, shape, construction)
             kernel = LayerKernel.from_greens(ds, "dynamic", material=mat)
             for spec in args.springs:
