@@ -100,8 +100,8 @@ def test_profile_requests_follow_the_rules_and_the_site(tmp_path):
     cluster_jobs = [(rule, res) for rule, res in jobs if rule in CLUSTER_RULES]
     assert Counter(rule for rule, _ in cluster_jobs) == {
         "prepare_surface": 1, "element_springs": 5 + 8, "greens": 5 + 8, "contact": 20 + 8, "loading_run": 10,
-        "stiffness_spectrum": 5,
-    }  # + 8: claim 6's anchor variants and control runs (issue 24), one dynamic run each
+        "stiffness_spectrum": 5, "construction_greens": 5, "construction_contact": 15,
+    }  # + 8: claim 6's anchor variants and control runs (issue 24), one dynamic run each; the seed's construction
     for rule, res in cluster_jobs:
         # every other resource of the profile survives the site settings
         assert res["slurm_account"] == "acct1" and res["slurm_partition"] == "part2", (rule, res)

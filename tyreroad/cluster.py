@@ -31,7 +31,9 @@ __all__ = ["CLUSTER_RULES", "job_resources", "run_steps", "rolling_pass_steps", 
 
 #: Rules that run as cluster jobs (the others are ``localrules``).
 CLUSTER_RULES = ("prepare_surface", "element_springs", "greens", "contact", "loading_run", "stiffness_spectrum",
-                 "rolling_greens", "rolling_run", "sensitivity_point")
+                 "rolling_greens", "rolling_run", "sensitivity_point", "construction_greens", "construction_contact")
+#: Rules that request what another rule of the same work does (the study's comparison constructions).
+_SAME_AS = {"construction_greens": "greens", "construction_contact": "contact"}
 
 _BASE_MB = 280.0          # MB, a stage's process: interpreter, numpy/scipy/numba/xarray, small arrays
 _SNAKEMAKE_MB = 400.0     # MB, the job's two Snakemake processes (batch step, job step)
@@ -201,6 +203,7 @@ def job_resources(rule: str, config: Mapping[str, Any], wildcards: Mapping[str, 
     if rule not in CLUSTER_RULES:
         raise ValueError(f"rule: expected one of {CLUSTER_RULES}, got {rule!r}")
     attempt = max(1, int(attempt))
+    rule = _SAME_AS.get(rule, rule)
     if rule == "prepare_surface":
         field = _field_mb(config["surfaces"][wildcards["surface"]])
         # 150 x 200 on the test cluster: 2.4 GB and 49 s for a 182 MB field (20 x 20: 0.2 GB, 54 MB)

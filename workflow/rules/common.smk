@@ -46,6 +46,7 @@ localrules:
     greens_figures,
     study,
     study_figures,
+    construction_study,
     claim6,
     report,
     loading_study,

@@ -21,8 +21,8 @@ rule construction_greens:
         code=SOURCE["greens"],
     threads: 1
     resources:
-        mem_mb=lambda w, attempt: cluster_resources("greens", config, w, attempt)["mem_mb"],
-        runtime=lambda w, attempt: cluster_resources("greens", config, w, attempt)["runtime"],
+        mem_mb=lambda w, attempt: cluster_resources("construction_greens", config, w, attempt)["mem_mb"],
+        runtime=lambda w, attempt: cluster_resources("construction_greens", config, w, attempt)["runtime"],
     script:
         "../scripts/greens.py"
 
@@ -47,8 +47,8 @@ rule construction_contact:
         code=SOURCE["contact"],
     threads: 1
     resources:
-        mem_mb=lambda w, attempt: cluster_resources("contact", config, w, attempt)["mem_mb"],
-        runtime=lambda w, attempt: cluster_resources("contact", config, w, attempt)["runtime"],
+        mem_mb=lambda w, attempt: cluster_resources("construction_contact", config, w, attempt)["mem_mb"],
+        runtime=lambda w, attempt: cluster_resources("construction_contact", config, w, attempt)["runtime"],
     script:
         "../scripts/contact.py"
 
