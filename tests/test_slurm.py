@@ -235,7 +235,8 @@ def _check_study_through_slurm(slurm_cluster, tmp_path):
     results = "results-test"  # results_dir of config/test.yaml
     files = _nc_files(local / results)
     assert files == _nc_files(cluster / results)
-    assert len(files) == sum(expected_jobs.values()) + 2  # + study.nc and loading.nc, made on the host
+    # + study.nc, loading.nc, claim6.nc and the seed construction's study.nc, made on the host
+    assert len(files) == sum(expected_jobs.values()) + 4
     for name in files:
         with xr.open_dataset(local / results / name) as a, xr.open_dataset(cluster / results / name) as b:
             a.load()
