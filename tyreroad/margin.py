@@ -37,7 +37,7 @@ import scipy.linalg
 from .influence import offset_matrix_index
 from .kernel import LayerKernel
 from .solver import FFT_THRESHOLD
-from .stability import circulant_margin
+from .stability import circulant_margin, mask_bands
 
 logger = logging.getLogger(__name__)
 
@@ -90,9 +90,7 @@ class PatchMargin:
 
     def failing_bands(self) -> list[tuple[float, float]]:
         """theta intervals [rad] where k_safe is finite."""
-        bad = np.isfinite(self.k_safe)
-        edges = np.flatnonzero(np.diff(np.concatenate([[0], bad.astype(int), [0]])))
-        return [(float(self.theta[a]), float(self.theta[b - 1])) for a, b in zip(edges[::2], edges[1::2])]
+        return mask_bands(self.theta, np.isfinite(self.k_safe))
 
     def describe(self) -> str:
         how = ("patch matrices" if self.method == "patch" else "circulant bound only (conservative)")

@@ -169,6 +169,12 @@ def stability_record(kernel: LayerKernel, shape, max_spring_stiffness, force, wo
 # the margin over the whole unit circle, for every contact set: a bound from the circulant embedding
 
 
+def mask_bands(theta, mask) -> list[tuple[float, float]]:
+    """The contiguous runs of grid points where ``mask`` is true, as (first, last) theta [rad]."""
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], np.asarray(mask).astype(int), [0]])))
+    return [(float(theta[a]), float(theta[b - 1])) for a, b in zip(edges[::2], edges[1::2])]
+
+
 class CirculantMargin:
     r"""A rigorous lower bound of the march's stability margin over the whole unit circle.
 
@@ -222,9 +228,7 @@ class CirculantMargin:
 
     def failing_bands(self) -> list[tuple[float, float]]:
         """theta intervals [rad] where p_bound <= 0."""
-        bad = ~(self.p_bound > 0)
-        edges = np.flatnonzero(np.diff(np.concatenate([[0], bad.astype(int), [0]])))
-        return [(float(self.theta[a]), float(self.theta[b - 1])) for a, b in zip(edges[::2], edges[1::2])]
+        return mask_bands(self.theta, ~(self.p_bound > 0))
 
     def describe(self) -> str:
         if math.isfinite(self.k_crit):
