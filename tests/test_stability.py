@@ -67,6 +67,39 @@ def test_one_element_march_chatters_exactly_past_k_crit(factor, grows, caplog):
         assert np.isnan(limit_d)
 
 
+def test_record_judges_by_the_whole_circle_margin_where_the_kernel_knows_it(caplog):
+    """A kernel that carries its greens file's margin (critical_stiffness) below its fs/2 point: the record
+    stores both, and a run stable at fs/2 but past the margin is flagged at the first step past the margin."""
+    import dataclasses
+
+    g0, g1 = 1e-5, 3e-5
+    lags = np.zeros((1, 1, 120))
+    lags[0, 0, :2] = g0, g1
+    k_fs2 = 1 / (g1 - g0)
+    kernel = dataclasses.replace(LayerKernel.dynamic(lags, FS), critical_stiffness=0.5 * k_fs2)
+    k = 0.8 * k_fs2  # below the fs/2 point, above the margin
+    stiffness, force = linear_tables(1, k, zeta_step=1e-6)
+    d = np.concatenate([np.linspace(0.0, 1e-5, 5), np.full(100, 1e-5)])
+    with pytest.raises(ValueError, match="past the stability limit"):  # refused before the first step ...
+        solve_path([[0.0]], stiffness, force, 1e-6, kernel, d, SolverSettings(), time=np.arange(d.size) / FS)
+    res = solve_path([[0.0]], stiffness, force, 1e-6, kernel, d, SolverSettings(stability="warn"),  # ... or recorded
+                     time=np.arange(d.size) / FS)
+    with caplog.at_level(logging.INFO, logger="tyreroad.stability"):
+        record = stability_record(kernel, (1, 1), res.max_spring_stiffness, res.force)
+    assert record.critical_stiffness == pytest.approx(k_fs2) and record.margin_stiffness == 0.5 * k_fs2
+    assert record.limit == 0.5 * k_fs2
+    assert record.first_step_past_limit == int(np.flatnonzero(res.max_spring_stiffness > 0.5 * k_fs2)[0])
+    assert "margin over the unit circle" in caplog.text
+    ds = contact_dataset(
+        res.__class__(**{**res.__dict__, "backing_force": res.force, "stability": record}), "dynamic", 1.0, "s", "m")
+    assert float(ds["margin_critical_stiffness"]) == 0.5 * k_fs2
+    assert _fs2_limit_indentation(ds, res.indentation) == res.indentation[record.first_step_past_limit]
+    # a kernel without a known margin records NaN and is judged at fs/2
+    plain = stability_record(LayerKernel.dynamic(lags, FS), (1, 1), res.max_spring_stiffness, res.force)
+    assert np.isnan(plain.margin_stiffness) and plain.limit == pytest.approx(k_fs2)
+    assert plain.first_step_past_limit is None
+
+
 def test_lanczos_path_equals_the_dense_eigenvalue():
     """Above the FFT threshold (21 x 20 elements) lambda_min comes from Lanczos over the FFT product:
     equal to the dense eigenvalue of the same matrix."""

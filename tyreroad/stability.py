@@ -115,18 +115,30 @@ class StabilityRecord:
         The stiffest tangent spring of each step [N/m].
     alternation : float
         :func:`fs2_alternation` of the total force [1].
+    margin_stiffness : float
+        The kernel's stability margin over the whole unit circle [N/m]: the greens file's
+        ``critical_stiffness`` (:mod:`tyreroad.margin`), the stiffest spring stable on every contact set
+        (inf: every spring; nan: the kernel does not know its margin). Never above ``critical_stiffness``,
+        which is only the fs/2 point of the circle.
     """
 
-    def __init__(self, critical_stiffness, nyquist_eigenvalue, max_spring_stiffness, alternation):
+    def __init__(self, critical_stiffness, nyquist_eigenvalue, max_spring_stiffness, alternation,
+                 margin_stiffness=float("nan")):
         self.critical_stiffness = float(critical_stiffness)
         self.nyquist_eigenvalue = float(nyquist_eigenvalue)
         self.max_spring_stiffness = np.asarray(max_spring_stiffness, dtype=float)
         self.alternation = float(alternation)
+        self.margin_stiffness = float(margin_stiffness)
+
+    @property
+    def limit(self) -> float:
+        """The stiffness the run's springs must stay below [N/m]: the whole-circle margin where known, else fs/2's."""
+        return self.critical_stiffness if np.isnan(self.margin_stiffness) else self.margin_stiffness
 
     @property
     def first_step_past_limit(self) -> int | None:
-        """The first step whose stiffest spring exceeds k_crit, or None."""
-        past = np.flatnonzero(self.max_spring_stiffness > self.critical_stiffness)
+        """The first step whose stiffest spring exceeds :attr:`limit`, or None."""
+        past = np.flatnonzero(self.max_spring_stiffness > self.limit)
         return int(past[0]) if past.size else None
 
     def variables(self) -> dict:
@@ -137,6 +149,10 @@ class StabilityRecord:
             "nyquist_critical_stiffness": ((), self.critical_stiffness, {
                 "units": "N/m", "long_name": "spring stiffness at which the time march's kernel admits an fs/2 "
                 "alternation, -1/lambda_min(G_d(-1)) over the patch (inf: none)"}),
+            "margin_critical_stiffness": ((), self.margin_stiffness, {
+                "units": "N/m", "long_name": "the run's kernel's stability margin over the whole unit circle: the "
+                "stiffest spring stable on every contact set of its patch (the greens file's critical_stiffness; "
+                "inf: every spring, nan: not known)"}),
             "nyquist_eigenvalue": ((), self.nyquist_eigenvalue, {
                 "units": "m/N", "long_name": "smallest eigenvalue of the kernel's transfer matrix at fs/2"}),
             "fs2_alternation": ((), self.alternation, {
@@ -152,16 +168,20 @@ def stability_record(kernel: LayerKernel, shape, max_spring_stiffness, force, wo
     ``window``: the steps the alternation is measured over (default the last fifth of the run).
     """
     k_crit, lam = nyquist_critical_stiffness(kernel, shape, workers)
-    record = StabilityRecord(k_crit, lam, max_spring_stiffness, fs2_alternation(force, window=window))
+    margin = getattr(kernel, "critical_stiffness", None)
+    record = StabilityRecord(k_crit, lam, max_spring_stiffness, fs2_alternation(force, window=window),
+                             float("nan") if margin is None else margin)
+    what = ("the kernel's margin over the unit circle" if not np.isnan(record.margin_stiffness) else "the kernel's fs/2 limit (its whole-circle margin is not known)")
     step = record.first_step_past_limit
     if step is not None:
         logger.warning(
-            "fs/2 stability: the stiffest spring reaches %.3e N/m at step %d, past the kernel's fs/2 limit "
-            "k_crit = %.3e N/m (lambda_min = %.3e m/N); fs/2 alternation over the last fifth of the run %.2e of "
-            "the mean force", float(np.max(record.max_spring_stiffness)), step, k_crit, lam, record.alternation)
+            "stability: the stiffest spring reaches %.3e N/m at step %d, past %s k_crit = %.3e N/m (fs/2: %.3e "
+            "N/m, lambda_min = %.3e m/N); fs/2 alternation over the last fifth of the run %.2e of the mean force",
+            float(np.max(record.max_spring_stiffness)), step, what, record.limit, k_crit, lam, record.alternation)
     else:
-        logger.info("fs/2 stability: springs up to %.3e N/m, below k_crit = %.3e N/m; alternation %.2e",
-                    float(np.max(record.max_spring_stiffness, initial=0.0)), k_crit, record.alternation)
+        logger.info("stability: springs up to %.3e N/m, below %s k_crit = %.3e N/m (fs/2: %.3e N/m); "
+                    "alternation %.2e", float(np.max(record.max_spring_stiffness, initial=0.0)), what,
+                    record.limit, k_crit, record.alternation)
     return record
 
 

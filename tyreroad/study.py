@@ -567,12 +567,15 @@ def native_samples(ds: xr.Dataset, src: str, settings: StudySettings) -> dict[st
 
 
 def _fs2_limit_indentation(ds: xr.Dataset, d: np.ndarray) -> float:
-    """d [m] of the first step whose stiffest spring passes the kernel's fs/2 limit (tyreroad.stability);
-    NaN for a run that stays below it or has no stability record (quasi-static runs)."""
+    """d [m] of the first step whose stiffest spring passes the kernel's stability limit (tyreroad.stability):
+    its margin over the whole unit circle where the run recorded it, else its fs/2 point; NaN for a run that
+    stays below it or has no stability record (quasi-static runs)."""
     if "max_spring_stiffness" not in ds.variables or "nyquist_critical_stiffness" not in ds.variables:
         return float("nan")
-    past = np.flatnonzero(np.asarray(ds["max_spring_stiffness"].values)[: d.size]
-                          > float(ds["nyquist_critical_stiffness"]))
+    limit = float(ds["nyquist_critical_stiffness"])
+    if "margin_critical_stiffness" in ds.variables and not np.isnan(float(ds["margin_critical_stiffness"])):
+        limit = float(ds["margin_critical_stiffness"])
+    past = np.flatnonzero(np.asarray(ds["max_spring_stiffness"].values)[: d.size] > limit)
     return float(d[past[0]]) if past.size else float("nan")
 
 
@@ -652,7 +655,8 @@ _ATTRS = {
     ),
     "n_elements": ("1", "number of contact elements of the patch"),
     "fs2_limit_indentation": ("m", "indentation at which the stiffest contact spring first passes the time march's "
-                              "fs/2 stability limit k_crit of its kernel (NaN: never, or a quasi-static run)"),
+                              "stability limit k_crit of its kernel: its margin over the unit circle where recorded, else "
+                              "its fs/2 point (NaN: never, or a quasi-static run)"),
     "fs2_alternation": ("1", "the contact run's fs/2 alternation of the force over its last fifth, over the mean "
                         "force there (tyreroad.stability; NaN: quasi-static)"),
     "stiffness_from_tangent": (

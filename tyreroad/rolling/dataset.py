@@ -115,6 +115,10 @@ def aggregate_rolling(runs: Sequence[xr.Dataset], band_limits=(100.0, 5000.0)) -
             "fluctuation_rms": float(np.std(fluct)) if fluct.size else float("nan"),
             "band_level": levels, "strongest_band": strongest, "chatter": chatter,
             "fs2_alternation": float(r["fs2_alternation"]) if "fs2_alternation" in r else float("nan"),
+            "margin_critical_stiffness": float(r["margin_critical_stiffness"]) if "margin_critical_stiffness" in r
+            else float("nan"),
+            "max_spring_stiffness": float(np.max(r["max_spring_stiffness"].values, initial=0.0))
+            if "max_spring_stiffness" in r else float("nan"),
             "curve": np.interp(x_grid, r["x_c"].values, f, left=0.0, right=0.0),
             "centre_offset": float(np.nanmean(r["pressure_centre"].values[steady] - r["x_c"].values[steady]))
             if steady.any() else float("nan"),
@@ -139,6 +143,9 @@ def aggregate_rolling(runs: Sequence[xr.Dataset], band_limits=(100.0, 5000.0)) -
                          "march chattered, the case is not trustworthy)"),
         "fs2_alternation": ("1", "rms of the fs/2 alternation of the force over the steady part, over the steady "
                                  "mean force (NaN: quasi-static, or a pass file without a stability record)"),
+        "margin_critical_stiffness": ("N/m", "the pass's kernel's stability margin over the unit circle (the greens "
+                                             "file's critical_stiffness; NaN: quasi-static or not known)"),
+        "max_spring_stiffness": ("N/m", "stiffest tangent contact spring of the pass (NaN: quasi-static)"),
     }
     data = {k: ("case", np.array([row[k] for row in rows]), a(*v)) for k, v in scal.items()}
     data["band_level"] = (("case", "band"), np.array([row["band_level"] for row in rows]),
