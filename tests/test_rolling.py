@@ -383,3 +383,49 @@ def test_flat_generator_and_strip_patch():
     assert ds.attrs["patch_selection"] == "centre"
     with pytest.raises(ValueError, match=r"surfaces.flat.seed_x: unknown key"):
         prepare_surface("flat", {"generator": "flat", "seed_x": 1})
+
+
+def test_contact_holes_count_force_free_elements_inside_a_rows_contact():
+    """A flat-road contact with one force-free element inside a row (the gap an fs/2 alternation opens) and
+    one outside every row's contact: one hole. Snapshots off the steady part are not judged."""
+    import xarray as xr
+
+    from tyreroad.rolling.dataset import contact_holes
+
+    forces = np.zeros((2, 8, 3))
+    forces[0, 2:7, :] = 1.0
+    forces[0, 4, 1] = 0.0  # inside row 1's contact: a hole
+    forces[1, 1:7, 0] = 1.0
+    forces[1, 3:5, 0] = 0.0  # two holes, but this snapshot is off the steady part
+    run = xr.Dataset({"element_force": (("snapshot", "ex", "ey"), forces),
+                      "snapshot_step": ("snapshot", [5, 1]),
+                      "steady": ("step", np.array([0, 0, 1, 1, 1, 1, 1, 0], np.int8))})
+    assert contact_holes(run) == 1
+    run["steady"][:] = 1
+    assert contact_holes(run) == 2
+
+
+def test_rolling_report_judges_alternation_against_the_mean_force_and_flat_road_holes():
+    """The flat-road 5 m/s failure the kernel issue measured: its chatter over the fluctuation looks like the
+    correct 20 m/s pass, but the alternation over the mean force (and the contact's hole) flags it."""
+    import xarray as xr
+
+    from tyreroad.report.claims import THRESHOLDS
+    from tyreroad.report.sections import _rolling_stability_lines, _untrustworthy_rolling_cases
+
+    n = 4
+    study = xr.Dataset({
+        "material": ("case", ["tread"] * n), "mode": ("case", ["dynamic"] * 3 + ["quasistatic"]),
+        "speed": ("case", [5.0, 10.0, 20.0, 5.0]), "chatter": ("case", [0.0, 0.0, 0.0, 0.0]),
+        "fs2_alternation": ("case", [3.7e-2, 5e-5, 2e-5, np.nan]),
+        "margin_critical_stiffness": ("case", [1.2e5, 1.2e5, 1.2e5, np.nan]),
+        "max_spring_stiffness": ("case", [4e4, 4e4, 4e4, np.nan]),
+        "contact_holes": ("case", [0, 2, 0, 0]), "flat_road": ("case", [1, 1, 1, 1]),
+        "centre_offset": ("case", [1e-4, 2e-4, 3e-4, 0.0]), "steady_loss_force": ("case", [1.0, 1.2, 1.3, 0.0]),
+    })
+    assert _untrustworthy_rolling_cases(study, THRESHOLDS) == [0, 1]
+    text = "\n".join(_rolling_stability_lines(study, THRESHOLDS))
+    assert "| tread | 5 | 1.2e+05 | 4e+04 | 3.70e-02 | 0 | fails |" in text
+    assert "| tread | 10 | 1.2e+05 | 4e+04 | 5.00e-05 | 2 | fails |" in text
+    assert "| tread | 20 | 1.2e+05 | 4e+04 | 2.00e-05 | 0 | holds |" in text
+    assert "0.100, 0.200, 0.300 mm (monotone)" in text and "1, 1.2, 1.3 N (monotone)" in text

@@ -51,7 +51,10 @@ The registry is the one place a verdict is decided: the report's table and the s
 :data:`THRESHOLDS` also holds the limits of the rolling section (:func:`tyreroad.report.rolling_section`):
 a dynamic rolling case whose fs/2 chatter measure exceeds ``rolling_chatter_max`` is flagged as not
 trustworthy (the force alternates from step to step: a numerical instability of the time march, not
-physics), and the dynamic rolling-loss coefficients are called sensible inside
+physics), as is one whose fs/2 alternation relative to the steady mean force exceeds
+``rolling_alternation_max`` (1e-4: the chatter measure divides by the force fluctuation, which a flat road
+does not have) or whose flat-road contact has a hole (an element without force inside a row's contact),
+and the dynamic rolling-loss coefficients are called sensible inside
 [``rolling_coefficient_lo``, ``rolling_coefficient_hi``], a decade around either end of the expected
 tread-hysteresis range of 1e-3 to 1e-2 (a check for gross errors, not a claim).
 """
@@ -121,6 +124,7 @@ THRESHOLDS: dict[str, float] = {
     "c9_d_min": 0.05e-3,  # m
     "c10_rel_max": 0.02,
     "rolling_chatter_max": 0.05,  # 1
+    "rolling_alternation_max": 1e-4,  # 1, of the steady mean force
     "rolling_coefficient_lo": 1e-4,  # 1
     "rolling_coefficient_hi": 5e-2,  # 1
 }

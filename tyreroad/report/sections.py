@@ -753,22 +753,25 @@ def rolling_section(ctx: ReportContext) -> list[str]:
         s = study.isel(case=i)
         lv = s["band_level"].values
         top = float(np.nanmax(lv)) if np.isfinite(lv).any() else float("nan")
-        flag = " (fs/2 chatter)" if "chatter" in s and float(s["chatter"]) > chatter_max else ""
+        flag = " (fs/2 chatter)" if i in _untrustworthy_rolling_cases(study, t) else ""
         lines.append(
             f"| {s['material'].item()}{flag} | {s['mode'].item()} | {float(s['speed']):g} | {1e3 * float(s['d0']):.4f} | "
             f"{float(s['steady_force']):.1f} | {float(s['rolling_loss_force']):.4g} | "
             f"{float(s['rolling_loss_coefficient']):.3e} | {float(s['steady_loss_force']):.4g} | "
             f"{1e3 * float(s['centre_offset']):.3f} | {float(s['fluctuation_rms']):.3g} | "
             f"{float(s['strongest_band']):.0f} | {top:.1f} |")
-    bad = [i for i in range(study.sizes["case"]) if "chatter" in study and float(study["chatter"][i]) > chatter_max]
+    bad = _untrustworthy_rolling_cases(study, t)
+    lines += _rolling_stability_lines(study, t)
     if bad:
         names = ", ".join(f"{study['material'].values[i]} at {float(study['speed'][i]):g} m/s" for i in bad)
-        lines += ["", f"**Not trustworthy: {names}.** The force alternates from step to step (fs/2 chatter, growing "
-                  "along the pass): the time march with the discrete kernel is unstable for this material and speed "
-                  "with these springs (a numerical limit of the solver, not physics); these cases are left out of "
-                  "the range below."]
-    dyn = study.where((study["mode"] == "dynamic") & (study["chatter"] <= chatter_max if "chatter" in study
-                                                       else study["mode"] == "dynamic"), drop=True)
+        lines += ["", f"**Not trustworthy: {names}.** The force alternates from step to step (fs/2 alternation past "
+                  f"{t['rolling_alternation_max']:.0e} of the steady force, or chatter past {chatter_max:g} of the "
+                  "fluctuation) or a flat road's contact has a hole: the time march with the discrete kernel is "
+                  "unstable for this material and speed with these springs (a numerical limit of the solver, not "
+                  "physics); these cases are left out of the range below."]
+    keep = np.ones(study.sizes["case"], bool)
+    keep[bad] = False
+    dyn = study.isel(case=np.flatnonzero(keep & (study["mode"].values.astype(str) == "dynamic")))
     if dyn.sizes.get("case", 0):
         coef = dyn["rolling_loss_coefficient"].values
         sensible = np.all((coef > t["rolling_coefficient_lo"]) & (coef < t["rolling_coefficient_hi"]))
@@ -787,6 +790,65 @@ def rolling_section(ctx: ReportContext) -> list[str]:
             lines += ["", f"Quasi-static passes of {material} at {len(curves)} speeds: F(x_c) differs by at most "
                       f"{diff:.1e} of its peak (no rate effect)."]
     return lines + [""]
+
+
+def _untrustworthy_rolling_cases(study, t) -> list[int]:
+    """Dynamic rolling cases whose force alternates at fs/2 (chatter over the fluctuation, or alternation over
+    the steady mean force, past their thresholds) or whose flat-road contact has a hole."""
+    def value(name, i, default=0.0):
+        return float(study[name].values[i]) if name in study else default
+
+    bad = []
+    for i in range(study.sizes["case"]):
+        alternation = value("fs2_alternation", i, float("nan"))
+        if (value("chatter", i) > t["rolling_chatter_max"]
+                or (np.isfinite(alternation) and alternation > t["rolling_alternation_max"])
+                or (value("flat_road", i) and value("contact_holes", i) > 0)):
+            bad.append(i)
+    return bad
+
+
+def _rolling_stability_lines(study, t) -> list[str]:
+    """The dynamic passes' stability record: the kernel's margin, the stiffest spring, the fs/2 alternation
+    against ``rolling_alternation_max`` and, on a flat road, the contact's holes."""
+    dynamic = [i for i in range(study.sizes["case"]) if str(study["mode"].values[i]) == "dynamic"]
+    if not dynamic or "fs2_alternation" not in study:
+        return []
+    limit = t["rolling_alternation_max"]
+    lines = ["", f"Stability of the dynamic passes (tyreroad.stability): the kernel's margin k_crit over the unit "
+             f"circle, the stiffest contact spring of the pass, and the fs/2 alternation of the force over the "
+             f"steady part relative to the steady mean force (limit {limit:.0e})"
+             + (", and the most force-free elements inside a row of the flat road's contact (limit 0)"
+                if "flat_road" in study and study["flat_road"].values.any() else "") + ".", "",
+             "| material | v [m/s] | k_crit [N/m] | stiffest spring [N/m] | fs/2 alternation | holes | verdict |",
+             "|---|---|---|---|---|---|---|"]
+    bad = set(_untrustworthy_rolling_cases(study, t))
+    for i in dynamic:
+        margin = float(study["margin_critical_stiffness"].values[i]) if "margin_critical_stiffness" in study else np.nan
+        stiff = float(study["max_spring_stiffness"].values[i]) if "max_spring_stiffness" in study else np.nan
+        holes = (str(int(study["contact_holes"].values[i])) if "flat_road" in study and study["flat_road"].values[i]
+                 else "(rough road)")
+        lines.append(f"| {study['material'].values[i]} | {float(study['speed'].values[i]):g} | {margin:.3g} | "
+                     f"{stiff:.3g} | {float(study['fs2_alternation'].values[i]):.2e} | {holes} | "
+                     f"{'fails' if i in bad else 'holds'} |")
+    if "flat_road" in study:
+        for material in dict.fromkeys(study["material"].values.astype(str)):
+            rows = [i for i in dynamic if str(study["material"].values[i]) == material and study["flat_road"].values[i]]
+            rows.sort(key=lambda i: float(study["speed"].values[i]))
+            if len(rows) < 3:
+                continue
+            speeds = [float(study["speed"].values[i]) for i in rows]
+            centre = np.array([float(study["centre_offset"].values[i]) for i in rows])
+            loss = np.array([float(study["steady_loss_force"].values[i]) for i in rows])
+
+            def monotone(v):
+                return bool(np.all(np.diff(v) > 0) or np.all(np.diff(v) < 0))
+
+            lines += ["", f"Flat road, {material}, against speed ({', '.join(f'{v:g}' for v in speeds)} m/s): "
+                      f"pressure centre - x_c {', '.join(f'{1e3 * v:.3f}' for v in centre)} mm "
+                      f"({'monotone' if monotone(centre) else 'NOT monotone'}), steady loss force "
+                      f"{', '.join(f'{v:.4g}' for v in loss)} N ({'monotone' if monotone(loss) else 'NOT monotone'})."]
+    return lines
 
 
 def config_section(ctx: ReportContext) -> list[str]:

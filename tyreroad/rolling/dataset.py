@@ -80,6 +80,30 @@ def rolling_dataset(result: RollingResult, info: Mapping[str, float], mode: str,
     return xr.Dataset(data, coords=coords, attrs=attrs)
 
 
+def contact_holes(run: xr.Dataset) -> int:
+    """The most elements without force inside a row's contact, over the pass's steady snapshots.
+
+    Per snapshot (``element_force``) and per row of elements along the rolling direction, the elements
+    between the row's first and last element in contact that carry no force; the maximum over rows and
+    the snapshots taken on the steady part. On a flat road the contact is one convex region and any hole
+    is numerical (a time march alternating at fs/2 opens a gap across the contact); on a rough road holes
+    are the texture's own. 0 without snapshots.
+    """
+    if "element_force" not in run or run.sizes.get("snapshot", 0) == 0:
+        return 0
+    steady_steps = set(np.flatnonzero(run["steady"].values.astype(bool)).tolist())
+    worst = 0
+    for k in range(run.sizes["snapshot"]):
+        if int(run["snapshot_step"].values[k]) not in steady_steps:
+            continue
+        loaded = run["element_force"].values[k] > 0.0  # (ex, ey)
+        for row in loaded.T:  # one row of elements along x
+            on = np.flatnonzero(row)
+            if on.size:
+                worst = max(worst, int(on[-1] - on[0] + 1 - on.size))
+    return worst
+
+
 def aggregate_rolling(runs: Sequence[xr.Dataset], band_limits=(100.0, 5000.0)) -> xr.Dataset:
     """Per case (material, mode, speed): steady force, rolling-loss force and coefficient, band levels.
 
@@ -118,7 +142,9 @@ def aggregate_rolling(runs: Sequence[xr.Dataset], band_limits=(100.0, 5000.0)) -
             "margin_critical_stiffness": float(r["margin_critical_stiffness"]) if "margin_critical_stiffness" in r
             else float("nan"),
             "max_spring_stiffness": float(np.max(r["max_spring_stiffness"].values, initial=0.0))
-            if "max_spring_stiffness" in r else float("nan"),
+            if "max_spring_stiffness" in r and r.attrs["mode"] == "dynamic" else float("nan"),
+            "contact_holes": contact_holes(r),
+            "flat_road": int("z1" in r and float(np.ptp(r["z1"].values)) == 0.0),
             "curve": np.interp(x_grid, r["x_c"].values, f, left=0.0, right=0.0),
             "centre_offset": float(np.nanmean(r["pressure_centre"].values[steady] - r["x_c"].values[steady]))
             if steady.any() else float("nan"),
@@ -146,6 +172,9 @@ def aggregate_rolling(runs: Sequence[xr.Dataset], band_limits=(100.0, 5000.0)) -
         "margin_critical_stiffness": ("N/m", "the pass's kernel's stability margin over the unit circle (the greens "
                                              "file's critical_stiffness; NaN: quasi-static or not known)"),
         "max_spring_stiffness": ("N/m", "stiffest tangent contact spring of the pass (NaN: quasi-static)"),
+        "contact_holes": ("1", "most elements without force between a row's first and last element in contact, "
+                               "over the steady snapshots (tyreroad.rolling.dataset.contact_holes)"),
+        "flat_road": ("1", "1 where the strip is flat (all matching heights equal): contact holes are numerical"),
     }
     data = {k: ("case", np.array([row[k] for row in rows]), a(*v)) for k, v in scal.items()}
     data["band_level"] = (("case", "band"), np.array([row["band_level"] for row in rows]),
