@@ -429,3 +429,9 @@ def test_rolling_report_judges_alternation_against_the_mean_force_and_flat_road_
     assert "| tread | 10 | 1.2e+05 | 4e+04 | 5.00e-05 | 2 | fails |" in text
     assert "| tread | 20 | 1.2e+05 | 4e+04 | 2.00e-05 | 0 | holds |" in text
     assert "0.100, 0.200, 0.300 mm (monotone)" in text and "1, 1.2, 1.3 N (monotone)" in text
+    # on a rough road, a pass whose texture input reaches past fs/4 is reported, not judged
+    rough = study.assign(flat_road=("case", [0, 0, 0, 0]), element_rate=("case", [5e3, 1e4, 2e4, 5e3]),
+                         sample_rate=("case", [51200.0] * n), fs2_alternation=("case", [3.7e-2, 5e-5, 2e-4, np.nan]))
+    assert _untrustworthy_rolling_cases(rough, THRESHOLDS) == [0]
+    assert "| tread | 20 | 1.2e+05 | 4e+04 | 2.00e-04 | (rough road) | not judged (input near fs/2) |" in "\n".join(
+        _rolling_stability_lines(rough, THRESHOLDS))

@@ -144,6 +144,8 @@ def aggregate_rolling(runs: Sequence[xr.Dataset], band_limits=(100.0, 5000.0)) -
             "max_spring_stiffness": float(np.max(r["max_spring_stiffness"].values, initial=0.0))
             if "max_spring_stiffness" in r and r.attrs["mode"] == "dynamic" else float("nan"),
             "contact_holes": contact_holes(r),
+            "element_rate": float(r.attrs["speed"]) / float(r.attrs["element_size"]),
+            "sample_rate": 1.0 / dt,
             "flat_road": int("z1" in r and float(np.ptp(r["z1"].values)) == 0.0),
             "curve": np.interp(x_grid, r["x_c"].values, f, left=0.0, right=0.0),
             "centre_offset": float(np.nanmean(r["pressure_centre"].values[steady] - r["x_c"].values[steady]))
@@ -175,6 +177,9 @@ def aggregate_rolling(runs: Sequence[xr.Dataset], band_limits=(100.0, 5000.0)) -
         "contact_holes": ("1", "most elements without force between a row's first and last element in contact, "
                                "over the steady snapshots (tyreroad.rolling.dataset.contact_holes)"),
         "flat_road": ("1", "1 where the strip is flat (all matching heights equal): contact holes are numerical"),
+        "element_rate": ("Hz", "elements passed per second, v / element size: the road texture's input reaches "
+                               "about this frequency"),
+        "sample_rate": ("Hz", "the pass's time-step rate"),
     }
     data = {k: ("case", np.array([row[k] for row in rows]), a(*v)) for k, v in scal.items()}
     data["band_level"] = (("case", "band"), np.array([row["band_level"] for row in rows]),
