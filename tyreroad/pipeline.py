@@ -36,6 +36,7 @@ __all__ = [
     "run_report",
     "run_stiffness_spectrum",
     "run_stiffness_figure",
+    "run_stiffness_combined",
 ]
 
 
@@ -558,6 +559,14 @@ def run_stiffness_figure(
     figure_preload = SpectrumSettings.from_config(spectrum_cfg).figure_preload
     with io.atomic_path(out_png) as tmp:
         plot_stiffness_spectrum(spectra, reference, variants, figure_preload, tmp)
+
+
+def run_stiffness_combined(spectra_ncs: Sequence[str | Path], out_nc: str | Path) -> None:
+    """``results/stiffness_spectrum.nc``: the study materials' K*(f; d0) in one file with a material dimension."""
+    from .kstar import combine_spectra
+
+    ds = combine_spectra([io.read_dataset(p) for p in spectra_ncs])
+    io.write_dataset(ds, out_nc, {"stiffness_spectra": [str(p) for p in spectra_ncs]}, stage="stiffness_combined")
 
 
 def run_rolling(
