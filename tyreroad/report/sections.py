@@ -346,7 +346,7 @@ def _stiffness_spectrum_section(spectra: Sequence[xr.Dataset], reference: str, v
         f"- Passivity: the smallest loss stiffness K″ over every material, preload and frequency is "
         f"{loss_min * _MN:.4f} MN/m ({'≥ 0' if loss_min >= 0 else 'NEGATIVE'}).",
         "- Reading it: `xarray.open_dataset(path).storage_stiffness.sel(preload=1e-4, frequency=1000)`; "
-        "see the README (\"contact spring for your model\").",
+        "`tyreroad kstar` exports it (README, recipe \"K* for your tyre model\"; docs/results.md).",
         "",
     ]
     return lines

@@ -1,6 +1,6 @@
 # Config checks (before any rule), wildcard constraints and small target helpers.
 # Every check that needs no computed result runs here, at planning time (snakemake -n included):
-# tyreroad.config names the key path, the value and what is expected. See README "Configuration".
+# tyreroad.config names the key path, the value and what is expected. See docs/pipeline.md "Configuration".
 from pathlib import Path
 
 from snakemake.utils import min_version, validate
