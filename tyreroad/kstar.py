@@ -213,7 +213,8 @@ def _put_state(out: xr.Dataset, state: str, storage, loss, dim: str) -> None:
     out[f"storage_{state}"] = (dim, storage, {"units": "N/m", "long_name": f"storage stiffness K' ({state} state)"})
     out[f"loss_{state}"] = (dim, loss, {"units": "N/m", "long_name": f"loss stiffness K'' ({state} state)"})
     out[f"magnitude_{state}"] = (dim, np.hypot(storage, loss), {"units": "N/m", "long_name": f"|K*| ({state} state)"})
-    out[f"loss_factor_{state}"] = (dim, loss / storage, {"units": "1", "long_name": f"loss factor K''/K' ({state} state)"})
+    out[f"loss_factor_{state}"] = (dim, loss / storage,
+                                   {"units": "1", "long_name": f"loss factor K''/K' ({state} state)"})
 
 
 # --------------------------------------------------------------------------------------------

@@ -551,7 +551,7 @@ def run_stiffness_figure(
     spectrum_cfg: Mapping[str, Any] | None,
     out_png: str | Path,
 ) -> None:
-    """Figure 9: |K*| and the loss factor against f, per preload for the reference, variants at one preload."""
+    """Figure 9: K' and K'' against f, per preload for the reference (relaxed and transient), all materials at one."""
     from .plots.stiffness import plot_stiffness_spectrum
     from .stiffness import SpectrumSettings
 

@@ -133,7 +133,8 @@ def plot_stiffness_spectrum(spectra: Sequence[xr.Dataset], reference: str, varia
     fig.suptitle("Dynamic contact stiffness K*(f; d0) = K' + i K'' (exp(+iωt))")
     fig.text(0.5, 0.005, f"Shaded, right of the dash-dotted line: above {f_check / 1e3:g} kHz the time-domain kernel's "
              f"fidelity to the layer FRF (from which K* is computed) is not checked;\n"
-             f"the axis ends at the kernel's Nyquist frequency fs/2 = {nyquist / 1e3:g} kHz.", ha="center", va="bottom", fontsize=8.5, color="0.2")
+             f"the axis ends at the kernel's Nyquist frequency fs/2 = {nyquist / 1e3:g} kHz.",
+             ha="center", va="bottom", fontsize=8.5, color="0.2")
     fig.tight_layout(rect=(0, 0.04, 1, 1))
     fig.savefig(out_png, dpi=120)
     plt.close(fig)
