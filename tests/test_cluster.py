@@ -168,7 +168,7 @@ def test_rolling_jobs_are_cluster_jobs_sized_for_the_strip():
         "greens", config, {"material": "tread"})["mem_mb"]
     w = {"surface": "iso10844-strip", "material": "tread", "mode": "dynamic"}
     slow, fast = (job_resources("rolling_run", config, {**w, "speed": v}) for v in ("5", "20"))
-    # measured (README, bench_rolling.py): 0.4 GB peak; 44 s at 5 m/s, 10 s at 20 m/s with 2 threads
+    # measured (docs/rolling.md, bench_rolling.py): 0.4 GB peak; 44 s at 5 m/s, 10 s at 20 m/s with 2 threads
     for res, seconds in ((slow, 44.0), (fast, 10.0)):
         assert 400 + 1.15 * 400 <= res["mem_mb"] <= 1500, res
         assert res["runtime"] * 60 >= 3 * 2 * seconds, res  # 1 thread: at most twice the 2-thread time

@@ -109,6 +109,7 @@ def test_full_tiny_study_produces_every_output(workdir):
         "figures/fig10_hysteresis.png",
         "stiffness_spectrum/iso10844/tread.nc",
         "stiffness_spectrum/iso10844/tread-rho2.nc",
+        "stiffness_spectrum.nc",
         "figures/fig9_stiffness_spectrum.png",
         "claim6.nc",  # issue 24: claim 6 by loss-variant definition
         "contact/iso10844/tread-eta0.5-a0/dynamic_500.nc",
@@ -202,6 +203,7 @@ def test_changed_package_line_replans_exactly_the_stages_that_run_it(workdir, pa
         f"{RESULTS}/loading.nc", f"{RESULTS}/figures/fig10_hysteresis.png",
         # K*(f) evaluates the element FRF (greens.py) itself
         *(f"{RESULTS}/stiffness_spectrum/iso10844/{m}.nc" for m in materials),
+        f"{RESULTS}/stiffness_spectrum.nc",
         f"{RESULTS}/figures/fig9_stiffness_spectrum.png",
         # claim 6 (issue 24): the test study's anchor variant and checks (greens and one dynamic run each), and
         # the seed variant's K* from the element FRF

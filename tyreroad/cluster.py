@@ -249,7 +249,7 @@ def job_resources(rule: str, config: Mapping[str, Any], wildcards: Mapping[str, 
             # the FFT work arrays' (150 x 20 strip, 20 m/s, 2 threads: 0.4 GB peak, benchmarks/
             # bench_rolling.py; this model asks for 0.4 GB of the process plus head room). Run time: the
             # FFT step below gives 0.06 s per step on 1 thread for 150 x 20; measured 0.023-0.025 s per
-            # step with 2 threads (10 s at 20 m/s, 44 s at 5 m/s, README "Rolling contact").
+            # step with 2 threads (10 s at 20 m/s, 44 s at 5 m/s, docs/rolling.md).
             steps = rolling_pass_steps(config, wildcards["surface"], wildcards["mode"], float(wildcards["speed"]))
             if config["rolling"].get("d0") is None:
                 # with a wheel load: the static d0 search, then passes until the steady force is the load

@@ -36,6 +36,7 @@ __all__ = [
     "run_report",
     "run_stiffness_spectrum",
     "run_stiffness_figure",
+    "run_stiffness_combined",
 ]
 
 
@@ -550,7 +551,7 @@ def run_stiffness_figure(
     spectrum_cfg: Mapping[str, Any] | None,
     out_png: str | Path,
 ) -> None:
-    """Figure 9: |K*| and the loss factor against f, per preload for the reference, variants at one preload."""
+    """Figure 9: K' and K'' against f, per preload for the reference (relaxed and transient), all materials at one."""
     from .plots.stiffness import plot_stiffness_spectrum
     from .stiffness import SpectrumSettings
 
@@ -558,6 +559,14 @@ def run_stiffness_figure(
     figure_preload = SpectrumSettings.from_config(spectrum_cfg).figure_preload
     with io.atomic_path(out_png) as tmp:
         plot_stiffness_spectrum(spectra, reference, variants, figure_preload, tmp)
+
+
+def run_stiffness_combined(spectra_ncs: Sequence[str | Path], out_nc: str | Path) -> None:
+    """``results/stiffness_spectrum.nc``: the study materials' K*(f; d0) in one file with a material dimension."""
+    from .kstar import combine_spectra
+
+    ds = combine_spectra([io.read_dataset(p) for p in spectra_ncs])
+    io.write_dataset(ds, out_nc, {"stiffness_spectra": [str(p) for p in spectra_ncs]}, stage="stiffness_combined")
 
 
 def run_rolling(

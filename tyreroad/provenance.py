@@ -40,6 +40,7 @@ STAGE_MODULES: dict[str, tuple[str, ...]] = {
     "hysteresis_figure": ("log", "pipeline", "plots.hysteresis"),
     "stiffness_spectrum": ("log", "pipeline", "contact", "material", "stiffness", "greens", "loading", "springs"),
     "stiffness_figure": ("log", "pipeline", "plots.stiffness", "stiffness"),
+    "stiffness_combined": ("log", "pipeline", "kstar"),
     "sensitivity": ("log", "sensitivity"),
     "rolling": ("log", "pipeline", "contact", "rolling"),
     "rolling_study": ("log", "pipeline", "rolling"),

@@ -298,8 +298,10 @@ def _stiffness_spectrum_section(spectra: Sequence[xr.Dataset], reference: str, v
         "which takes seconds and more for the default fractional tread), with the element FRF g(f) of the layer "
         "over the contact set C and the tangent spring stiffnesses k_e (SPEC 11; exp(+iωt), F̂ = K* δ̂). "
         f"Files: `results/stiffness_spectrum/{{surface}}/{{material}}.nc` ({ref.sizes['frequency']} frequencies "
-        f"from {f_lo:g} Hz to {float(ref['frequency'].values[-1]):g} Hz), figure "
-        "`results/figures/fig9_stiffness_spectrum.png`. K′ = Re K*, η = Im K*/Re K*, K_qs = dF/dd of the "
+        f"from {f_lo:g} Hz to {float(ref['frequency'].values[-1]):g} Hz), all materials in one file "
+        "`results/stiffness_spectrum.nc` (a material dimension), K′ and K″ in figure "
+        "`results/figures/fig9_stiffness_spectrum.png`; `tyreroad kstar MATERIAL --preload 0.12mm [--third-octave]` "
+        "exports CSV at any preload between the computed ones (K′, K″ linear in d0). K′ = Re K*, η = Im K*/Re K*, K_qs = dF/dd of the "
         "quasi-static curve at d0.",
         "",
         f"Reference material `{reference}`:",
@@ -344,7 +346,7 @@ def _stiffness_spectrum_section(spectra: Sequence[xr.Dataset], reference: str, v
         f"- Passivity: the smallest loss stiffness K″ over every material, preload and frequency is "
         f"{loss_min * _MN:.4f} MN/m ({'≥ 0' if loss_min >= 0 else 'NEGATIVE'}).",
         "- Reading it: `xarray.open_dataset(path).storage_stiffness.sel(preload=1e-4, frequency=1000)`; "
-        "see the README (\"contact spring for your model\").",
+        "`tyreroad kstar` exports it (README, recipe \"K* for your tyre model\"; docs/results.md).",
         "",
     ]
     return lines

@@ -1,6 +1,6 @@
 # Config checks (before any rule), wildcard constraints and small target helpers.
 # Every check that needs no computed result runs here, at planning time (snakemake -n included):
-# tyreroad.config names the key path, the value and what is expected. See README "Configuration".
+# tyreroad.config names the key path, the value and what is expected. See docs/pipeline.md "Configuration".
 from pathlib import Path
 
 from snakemake.utils import min_version, validate
@@ -52,6 +52,7 @@ localrules:
     loading_study,
     hysteresis_figure,
     stiffness_figure,
+    stiffness_combined,
     sensitivity,
     rolling,
     rolling_study,
@@ -183,6 +184,7 @@ def all_targets():
         f"{R}/report.md",
         *[f"{R}/figures/{name}.png" for name in STUDY_FIGURES],
         *stiffness_spectra(),
+        f"{R}/stiffness_spectrum.nc",
         f"{R}/figures/fig9_stiffness_spectrum.png",
         *loading_outputs(),
         *construction_outputs(),

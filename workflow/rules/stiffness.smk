@@ -1,5 +1,6 @@
 # Dynamic contact stiffness K*(f; d0) (SPEC 11, tyreroad.stiffness): per study material the complex
-# contact spring about the relaxed preload state, figure 9, and (rule report) a report section.
+# contact spring about the relaxed preload state, all materials in one file (stiffness_spectrum.nc,
+# a material dimension), figure 9, and (rule report) a report section.
 # The section and its frequencies against the kernel's sample rate are checked at planning time by
 # tyreroad.config.check_config (common.smk).
 STIFFNESS_SPECTRUM = config.get("stiffness_spectrum", {})
@@ -44,3 +45,17 @@ rule stiffness_figure:
     threads: 1
     script:
         "../scripts/stiffness_figure.py"
+
+
+rule stiffness_combined:
+    input:
+        spectra=stiffness_spectra(),
+    output:
+        nc=f"{R}/stiffness_spectrum.nc",
+    log:
+        f"{R}/logs/stiffness_combined.log",
+    params:
+        code=SOURCE["stiffness_combined"],
+    threads: 1
+    script:
+        "../scripts/stiffness_combined.py"
