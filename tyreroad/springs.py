@@ -23,7 +23,7 @@ of the element's samples z_p (dx = scan step). Models (config ``springs.model``)
 ``hard``
     Hard contact: a linear penalty spring of ``hard_stiffness`` (default 1e10 N/m) for zeta > 0, so stiff that
     its compliance 1 / k is ~3e-6 of the layer's static self-compliance g(0) ~ 3.2e-5 m/N (the springs file
-    states the ratio). Far past every single-stage kernel's stability limit: dynamic runs need
+    states 1 / k, the contact run's log the ratio to the greens file's g(0)). Far past every single-stage kernel's stability limit: dynamic runs need
     ``greens.construction: radau`` (the configuration refuses anything else).
 
 Time dependence (config ``springs.rheology``): ``elastic`` (default) uses these tables at every rate;
@@ -1031,15 +1031,13 @@ def element_springs(
         stiffness = stiffness.reshape(n_ex, n_ey, zeta.size)
         attrs["connectivity"] = "4 (samples sharing an edge form one spot)"
     elif spring_model.model == "hard":
-        from .greens import static_element_kernel
-
+        # the ratio of 1 / k to the layer's static self-compliance g(0) is logged by the contact run, which reads
+        # g(0) from the greens file (the springs stage does not run the greens code)
         k_hard = spring_model.hard_stiffness
         stiffness = np.full((n_ex, n_ey, zeta.size), k_hard)
-        g_self = float(static_element_kernel(np.zeros((1, 2)), n * dx, e_s, nu, h)[0])
-        attrs.update(hard_stiffness=k_hard, layer_static_compliance=g_self, penalty_compliance_ratio=1.0 / (k_hard * g_self))
-        logger.info("element springs: hard contact, penalty springs of %.3g N/m: compliance 1/k = %.3g m/N, %.3g of "
-                    "the layer's static self-compliance g(0) = %.4g m/N", k_hard, 1.0 / k_hard, 1.0 / (k_hard * g_self),
-                    g_self)
+        attrs.update(hard_stiffness=k_hard, penalty_compliance=1.0 / k_hard)
+        logger.info("element springs: hard contact, linear penalty springs of %.3g N/m (compliance 1/k = %.3g m/N)",
+                    k_hard, 1.0 / k_hard)
     else:
         stiffness = np.full((n_ex, n_ey, zeta.size), spring_model.linear_stiffness)
         attrs["linear_stiffness"] = spring_model.linear_stiffness

@@ -82,8 +82,6 @@ from numba import njit, prange
 import scipy.linalg
 
 from . import checks
-from .cq import _element_laplace_fn, exact_frf
-from .greens import offset_table_index, unique_offsets
 from .history import HistorySum, _StepCounter
 from .influence import offset_matrix
 from .kernel import LayerKernel
@@ -113,6 +111,8 @@ def _crop(table: np.ndarray, shape) -> np.ndarray:
 
 def stage_table(weights: np.ndarray, shape) -> np.ndarray:
     """Block weights at the unique offsets (L, 3, 3, n_offsets) -> offset tables (2 nx - 1, 2 ny - 1, L, 3, 3)."""
+    from .greens import offset_table_index
+
     _, _, index = offset_table_index(shape)
     return np.ascontiguousarray(np.moveaxis(weights[..., index], (3, 4), (0, 1)))
 
@@ -562,6 +562,11 @@ class StageKernel(LayerKernel):
         spectrum : RetardationSpectrum, optional
             The creep fit (default :func:`tyreroad.memory.fit_retardation_spectrum` up to fs / 2).
         """
+        # the construction's code (element FRF, offsets) is imported here, not at module level: a contact run reads
+        # the stage kernel from its greens file (from_greens) and runs none of it (tyreroad.provenance)
+        from .cq import _element_laplace_fn, exact_frf
+        from .greens import offset_table_index, unique_offsets
+
         nx, ny = (checks.integer(f"shape[{i}]", v) for i, v in enumerate(shape))
         c = checks.real("element_size", element_size, positive=True)
         fs = checks.real("sample_rate", sample_rate, positive=True)
@@ -714,6 +719,9 @@ class StageKernel(LayerKernel):
         ``worst`` the same maximised over offsets (each over its own W_0[3, 3] at offset 0); ``last_kept``
         max |W_{L-1}| / |W_0| of the full weights at offset 0.
         """
+        from .cq import _element_laplace_fn
+        from .greens import offset_table_index, unique_offsets
+
         c = float(self.element_size)
         nx, ny = shape
         offsets = unique_offsets((nx, ny)) * c
