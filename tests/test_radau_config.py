@@ -71,15 +71,16 @@ def surface(tmp_path_factory):
 
 def _springs(tmp_path, config, surface, springs_cfg):
     path = tmp_path / "springs.nc"
-    inputs = pipeline.spring_material_inputs("tread", config["materials"])
-    pipeline.run_element_springs(surface, "scan", "tread", inputs, dict(config["springs"], **springs_cfg), path)
+    springs_cfg = dict(config["springs"], **springs_cfg)
+    inputs = pipeline.spring_material_inputs("tread", config["materials"], springs_cfg)
+    pipeline.run_element_springs(surface, "scan", "tread", inputs, springs_cfg, path)
     return path
 
 
-def _cycle(tmp_path, surface, springs_nc, greens_nc, tread, name="run.nc"):
+def _cycle(tmp_path, surface, springs_nc, greens_nc, tread, name="run.nc", solver=None):
     out = tmp_path / name
-    pipeline.run_loading(surface, springs_nc, greens_nc, "scan", "tread", tread, "dynamic", "cycle", CYCLE, {},
-                         out)
+    pipeline.run_loading(surface, springs_nc, greens_nc, "scan", "tread", tread, "dynamic", "cycle", CYCLE,
+                         dict(solver or {}), out)
     return io.read_dataset(out)
 
 
@@ -187,3 +188,52 @@ def test_config_validation(config):
     assert SpringModel.from_config({"model": "hard"}).hard_stiffness == 1e10
     with pytest.raises(ValueError, match="springs.hard_stiffness"):
         SpringModel.from_config({"model": "hard", "hard_stiffness": -1.0})
+
+
+def test_stage_qlv_springs_with_one_stage_are_the_march_springs():
+    """StageMarchSprings with the single fraction 1 is MarchSprings (same forces, tangents and history)."""
+    from tyreroad.qlv import MarchSprings, RelaxationFunction
+    from tyreroad.springs import SpringTable
+
+    rng = np.random.default_rng(7)
+    scale = rng.uniform(0.5, 2.0, (5, 1))
+    k, f = linear_tables(5, 1e5)
+    table = SpringTable.checked(k * scale, f * scale, 1e-6, 5)
+    relaxation = RelaxationFunction(1.0, np.array([0.5, 2.0]), np.array([1e-5, 1e-3]), 0.0)
+    one = MarchSprings(table, relaxation, 1 / 51200.0)
+    stage = one.for_stages([1.0])
+    for springs in (one, stage):
+        springs.start()
+    for _ in range(6):
+        zeta = rng.uniform(-1e-6, 3e-6, 5)
+        for a, b in zip(one.evaluate(zeta), stage.evaluate(zeta)):
+            np.testing.assert_array_equal(a, b)
+        one.commit(zeta)
+        stage.commit(zeta)
+    assert stage.max_stiffness == one.max_stiffness
+
+
+def test_qlv_springs_hold_on_radau(tmp_path, config, tread, surface, radau_greens, fold_greens):
+    """The QLV overlay (config/springs-qlv.yaml: greens.construction radau, solver.stability refuse): QLV springs,
+    ~4.6 x stiffer within a step than their table, hold on the stage kernel without fs/2 alternation (measured
+    2.3e-8 of the force from 20 steps into the hold, 1.1e-12 over its last 20 %), although they differ between the
+    stages of a step (outside the kernel's stability argument); on a single-stage kernel they are refused. Soft
+    linear QLV springs (1e3 N/m) give the single-stage kernel's forces to 2e-3 of the peak (measured 9.5e-4; elastic
+    springs of 1e3 N/m: 1.2e-4)."""
+    overlay = load_config("config/springs-qlv.yaml")
+    assert overlay["greens"]["construction"] == "radau" and overlay["solver"]["stability"] == "refuse"
+    qlv = merge(copy.deepcopy(config), overlay)
+    springs_nc = _springs(tmp_path, qlv, surface, {})
+    assert io.read_dataset(springs_nc).attrs["spring_rheology"] == "qlv"
+    run = _cycle(tmp_path, surface, springs_nc, radau_greens, tread, solver=qlv["solver"])
+    hold = _hold(run)
+    assert hold.size >= 500 and np.all(hold > 0)
+    assert fs2_alternation(hold[20:], fraction=1.0) <= 1e-6 and fs2_alternation(hold) <= 1e-6
+    assert run["force"].values[-1] == 0.0 and float(run["residual"].max()) <= 1e-12
+    with pytest.raises(ValueError, match=r"greens\.construction: radau"):
+        _cycle(tmp_path, surface, springs_nc, fold_greens, tread, "refused.nc", solver=qlv["solver"])
+
+    soft = _springs(tmp_path, qlv, surface, {"model": "linear", "linear_stiffness": 1e3})
+    stage = _cycle(tmp_path, surface, soft, radau_greens, tread, "stage.nc")["force"].values
+    single = _cycle(tmp_path, surface, soft, fold_greens, tread, "single.nc")["force"].values
+    assert stage.shape == single.shape and np.abs(stage - single).max() <= 2e-3 * single.max()

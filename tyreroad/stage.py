@@ -484,7 +484,12 @@ class StageLoading:
 
 
 def stage_springs(springs: SpringTable) -> SpringTable:
-    """The patch's springs tiled over the three stages (stage-major)."""
+    """The patch's springs tiled over the three stages (stage-major); springs with a force history (QLV,
+    :class:`tyreroad.qlv.MarchSprings`) give their stage form (``for_stages``)."""
+    for_stages = getattr(springs, "for_stages", None)
+    if for_stages is not None:
+        return for_stages(RADAU_C)
+
     def tile(a):
         a = np.asarray(a)
         return np.ascontiguousarray(np.tile(a.reshape(-1, a.shape[-1]), (STAGES, 1)))
