@@ -46,13 +46,23 @@ def radau_greens(tmp_path_factory, config, tread):
     return path
 
 
+def _single_stage_greens(tmp_path_factory, config, tread, construction):
+    path = tmp_path_factory.mktemp(construction) / "tread.nc"
+    pipeline.run_greens("tread", tread, dict(config["greens"], construction=construction, n_lags=N_LAGS),
+                        list(SHAPE), 1e-3, path)
+    return path
+
+
+@pytest.fixture(scope="module")
+def passive_greens(tmp_path_factory, config, tread):
+    """The default kernel with its stability margin (k_crit 1.24e5 N/m on this patch; its LP takes ~4 s here)."""
+    return _single_stage_greens(tmp_path_factory, config, tread, "passive")
+
+
 @pytest.fixture(scope="module")
 def fold_greens(tmp_path_factory, config, tread):
-    """A single-stage kernel with its stability margin (fold: passive without its LP, which takes minutes)."""
-    path = tmp_path_factory.mktemp("fold") / "tread.nc"
-    pipeline.run_greens("tread", tread, dict(config["greens"], construction="fold", n_lags=N_LAGS), list(SHAPE),
-                        1e-3, path)
-    return path
+    """The single-stage kernel without passive's FIR: the comparison for soft springs."""
+    return _single_stage_greens(tmp_path_factory, config, tread, "fold")
 
 
 @pytest.fixture(scope="module")
@@ -140,18 +150,17 @@ def test_hard_contact_load_hold_from_config(tmp_path, caplog, config, tread, sur
     assert run["force"].values[-1] == 0.0 and float(run["residual"].max()) <= 1e-12
 
 
-def test_stiff_springs_refused_on_a_single_stage_kernel_run_on_radau(tmp_path, config, tread, surface, fold_greens,
-                                                                     radau_greens):
-    """The same hard-contact cycle on a single-stage kernel is refused before the first step, naming the cure; linear
-    springs of 1e6 N/m (past the single-stage kernels' margin) too, and they run on radau without alternation."""
+def test_stiff_springs_refused_on_passive_run_on_radau(tmp_path, config, tread, surface, passive_greens, radau_greens):
+    """The same hard-contact cycle on the passive kernel is refused before the first step, naming the cure; linear
+    springs of 1e6 N/m (past passive's margin) too, and they run on radau without alternation."""
     hard = _springs(tmp_path, config, surface, {"model": "hard"})
     with pytest.raises(ValueError, match=r"greens\.construction: radau") as info:
-        _cycle(tmp_path, surface, hard, fold_greens, tread, "refused.nc")
+        _cycle(tmp_path, surface, hard, passive_greens, tread, "refused.nc")
     assert "k_crit" in str(info.value) and "Refused before the first step" in str(info.value)
     assert not (tmp_path / "refused.nc").exists()
     stiff = _springs(tmp_path, config, surface, {"model": "linear", "linear_stiffness": 1e6})
     with pytest.raises(ValueError, match=r"greens\.construction: radau"):
-        _cycle(tmp_path, surface, stiff, fold_greens, tread, "refused.nc")
+        _cycle(tmp_path, surface, stiff, passive_greens, tread, "refused.nc")
     run = _cycle(tmp_path, surface, stiff, radau_greens, tread)
     hold = _hold(run)
     assert hold.size >= 500 and fs2_alternation(hold[20:], fraction=1.0) <= 1e-6 and fs2_alternation(hold) <= 1e-6
@@ -213,13 +222,13 @@ def test_stage_qlv_springs_with_one_stage_are_the_march_springs():
     assert stage.max_stiffness == one.max_stiffness
 
 
-def test_qlv_springs_hold_on_radau(tmp_path, config, tread, surface, radau_greens, fold_greens):
+def test_qlv_springs_hold_on_radau(tmp_path, config, tread, surface, radau_greens, passive_greens, fold_greens):
     """The QLV overlay (config/springs-qlv.yaml: greens.construction radau, solver.stability refuse): QLV springs,
     ~4.6 x stiffer within a step than their table, hold on the stage kernel without fs/2 alternation (measured
     2.3e-8 of the force from 20 steps into the hold, 1.1e-12 over its last 20 %), although they differ between the
-    stages of a step (outside the kernel's stability argument); on a single-stage kernel they are refused. Soft
-    linear QLV springs (1e3 N/m) give the single-stage kernel's forces to 2e-3 of the peak (measured 9.5e-4; elastic
-    springs of 1e3 N/m: 1.2e-4)."""
+    stages of a step (outside the kernel's stability argument); on the passive kernel they are refused. Soft
+    linear QLV springs (1e3 N/m) give the single-stage (fold) kernel's forces to 2e-3 of the peak (measured 9.5e-4;
+    elastic springs of 1e3 N/m: 1.2e-4)."""
     overlay = load_config("config/springs-qlv.yaml")
     assert overlay["greens"]["construction"] == "radau" and overlay["solver"]["stability"] == "refuse"
     qlv = merge(copy.deepcopy(config), overlay)
@@ -231,7 +240,7 @@ def test_qlv_springs_hold_on_radau(tmp_path, config, tread, surface, radau_green
     assert fs2_alternation(hold[20:], fraction=1.0) <= 1e-6 and fs2_alternation(hold) <= 1e-6
     assert run["force"].values[-1] == 0.0 and float(run["residual"].max()) <= 1e-12
     with pytest.raises(ValueError, match=r"greens\.construction: radau"):
-        _cycle(tmp_path, surface, springs_nc, fold_greens, tread, "refused.nc", solver=qlv["solver"])
+        _cycle(tmp_path, surface, springs_nc, passive_greens, tread, "refused.nc", solver=qlv["solver"])
 
     soft = _springs(tmp_path, qlv, surface, {"model": "linear", "linear_stiffness": 1e3})
     stage = _cycle(tmp_path, surface, soft, radau_greens, tread, "stage.nc")["force"].values
