@@ -108,7 +108,8 @@ def test_greens_file_round_trip_marches_as_from_material(radau_greens, config):
                  "stage_tail_u", "stage_tail_v", "stage_tail_r"):
         assert ds[name].attrs["units"] and ds[name].attrs["long_name"], name
     assert ds["stage_weight"].dims == ("dx", "dy", "lag", "stage_out", "stage_in")
-    assert math.isinf(float(ds["critical_stiffness"])) and ds["critical_stiffness"].attrs["method"] == STAGE_MARGIN_METHOD
+    assert math.isinf(float(ds["critical_stiffness"]))
+    assert ds["critical_stiffness"].attrs["method"] == STAGE_MARGIN_METHOD
     assert "three stages" in STAGE_MARGIN_METHOD and "not covered" in STAGE_MARGIN_METHOD
     # fidelity of the march's own transfer function, judged like the other constructions' (measured 7.0e-5)
     assert float(ds["fidelity_magnitude"]) < 1e-3 and float(ds["fidelity_phase"]) < 1e-3

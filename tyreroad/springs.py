@@ -23,8 +23,9 @@ of the element's samples z_p (dx = scan step). Models (config ``springs.model``)
 ``hard``
     Hard contact: a linear penalty spring of ``hard_stiffness`` (default 1e10 N/m) for zeta > 0, so stiff that
     its compliance 1 / k is ~3e-6 of the layer's static self-compliance g(0) ~ 3.2e-5 m/N (the springs file
-    states 1 / k, the contact run's log the ratio to the greens file's g(0)). Far past every single-stage kernel's stability limit: dynamic runs need
-    ``greens.construction: radau`` (the configuration refuses anything else).
+    states 1 / k, the contact run's log the ratio to the greens file's g(0)). Far past every single-stage
+    kernel's stability limit: dynamic runs need ``greens.construction: radau`` (the configuration refuses
+    anything else).
 
 Time dependence (config ``springs.rheology``): ``elastic`` (default) uses these tables at every rate;
 ``qlv`` lets the force relax with the tread's modulus, F = int R(t - tau) dF(zeta(tau)), R = E(t) / E_s
@@ -345,7 +346,8 @@ class SpringModel:
         object.__setattr__(self, "zeta_max", zmax)
         object.__setattr__(self, "zeta_step", step)
         object.__setattr__(self, "linear_stiffness", checks.real(f"{s}.linear_stiffness", self.linear_stiffness, positive=True))
-        object.__setattr__(self, "hard_stiffness", checks.real(f"{s}.hard_stiffness", self.hard_stiffness, positive=True))
+        object.__setattr__(self, "hard_stiffness",
+                           checks.real(f"{s}.hard_stiffness", self.hard_stiffness, positive=True))
 
     @classmethod
     def from_config(cls, section: Mapping[str, Any] | None) -> "SpringModel":

@@ -93,7 +93,8 @@ from .springs import SpringTable
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["DENSE_LIMIT", "STAGE_CONSTRUCTION", "STAGE_MARGIN_METHOD", "radau_greens", "stage_variables", "StageTail", "StageKernel", "StageLoading", "StageRecorder", "StageDenseSubstrate",
+__all__ = ["DENSE_LIMIT", "STAGE_CONSTRUCTION", "STAGE_MARGIN_METHOD", "radau_greens", "stage_variables",
+           "StageTail", "StageKernel", "StageLoading", "StageRecorder", "StageDenseSubstrate",
            "StageFFTHistory", "StageTailHistory", "stage_springs", "stage_table"]
 
 #: Largest patch (elements) of the dense stage substrate (3 M x 3 M matrix: 1600 elements = 184 MB).
