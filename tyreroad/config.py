@@ -476,6 +476,42 @@ def _check_qlv_springs(config: Mapping[str, Any]) -> None:
             raise _wrap(exc, "springs") from None
 
 
+def _check_hard_contact(config: Mapping[str, Any]) -> None:
+    """Hard contact (springs.model: hard) in the study's dynamic runs needs the stage kernel (greens.construction:
+    radau): its penalty springs (1e10 N/m by default) are far past every single-stage kernel's stability limit
+    (passive: 1.2e5 N/m), whose march would alternate at fs/2 and diverge. The study always runs dynamic
+    (study.accelerations), and so do the comparison constructions (study.compare_constructions)."""
+    from .greens import KERNEL_CONSTRUCTIONS
+
+    model = (config.get("springs", {}) or {}).get("model", _SPRINGS.model)
+    own = (config.get("greens", {}) or {}).get("construction", _GREENS.construction)
+    if own == "radau":
+        from .stage import DENSE_LIMIT
+
+        surface = (config.get("study", {}) or {}).get("surface")
+        patch = ((config.get("surfaces", {}) or {}).get(surface, {}) or {}).get("patch_elements")
+        if patch is not None and int(patch[0]) * int(patch[1]) > DENSE_LIMIT:
+            raise ConfigError(
+                f"greens.construction = 'radau' with surfaces.{surface}.patch_elements = {list(patch)}: the Radau "
+                f"stage kernel has a dense substrate only, patches up to {DENSE_LIMIT} elements")
+    if model != "hard":
+        return
+    stable = "radau"
+    others = [c for c in KERNEL_CONSTRUCTIONS if c != stable]
+    if own != stable:
+        raise ConfigError(
+            f"greens.construction = {own!r} with springs.model = 'hard': the study's dynamic runs on hard contact "
+            f"(penalty springs of springs.hard_stiffness) need the kernel stable for every spring, "
+            f"greens.construction: {stable} (the {', '.join(others)} kernels are stable only for springs below their "
+            "critical stiffness, 1.2e5 N/m for passive); set greens.construction: radau")
+    compared = [c for c in (config.get("study", {}) or {}).get("compare_constructions", []) or [] if c != stable]
+    if compared:
+        raise ConfigError(
+            f"study.compare_constructions = {compared!r} with springs.model = 'hard': their dynamic runs on hard "
+            f"contact would alternate at fs/2 and diverge (only greens.construction: {stable} is stable for every "
+            "spring); set study.compare_constructions: []")
+
+
 def surface_plan(name: str, spec: Mapping[str, Any], base_dir: str | Path = ".") -> dict[str, Any]:
     """Parse a surface preset as the surface stage will, and check that its patch fits.
 
@@ -578,6 +614,7 @@ def check_config(config: Mapping[str, Any], base_dir: str | Path = ".") -> None:
     _check_case_collisions("materials", config["materials"])
     _check_solver_and_study(config)
     _check_package_settings(config)
+    _check_hard_contact(config)
     for name, spec in config["surfaces"].items():
         surface_plan(name, spec, base_dir)
     _check_rolling(config)

@@ -448,6 +448,11 @@ def _stage_run(surface: xr.Dataset, springs: xr.Dataset, greens: xr.Dataset, mat
     loading = make_loading(z1, kernel)
     springs_table = springs_for_run(springs, SpringTable.checked(table.stiffness, table.force, table.zeta_step,
                                                                  z1.size))
+    if "hard_stiffness" in springs.attrs and "g_static" in greens:  # springs.model: hard
+        k_hard, g_self = float(springs.attrs["hard_stiffness"]), float(greens["g_static"].sel(dx=0, dy=0))
+        logger.info("hard contact: penalty springs of %.3g N/m, compliance 1/k = %.3g m/N = %.3g of the layer's static "
+                    "self-compliance g(0) = %.4g m/N (the penalty's relative force error)", k_hard, 1.0 / k_hard,
+                    1.0 / (k_hard * g_self), g_self)
     result = run_loading_path(loading, springs_table, kernel, settings, threads)
     stability = None if kernel.static else stability_record(kernel, loading.shape, result.max_spring_stiffness,
                                                             result.force, threads)

@@ -110,8 +110,10 @@ _MIN_N_FFT = 4096
 #: ``seed`` the paper's band-limited IFFT with the negative-time part discarded; ``fold`` the same IFFT
 #: with a causal material's band-limit precursor replaced by a causal correction of the first lags;
 #: ``passive`` (the default) ``fold`` plus a causal FIR on the excitation element that makes the march
-#: stable for springs up to 1.2e5 N/m (:mod:`tyreroad.construction`, applied by the greens stage).
-KERNEL_CONSTRUCTIONS = ("seed", "fold", "passive")
+#: stable for springs up to 1.2e5 N/m (:mod:`tyreroad.construction`, applied by the greens stage); ``radau`` the
+#: Radau IIA-3 stage kernel (:mod:`tyreroad.stage`, three unknowns per element and step), stable for every spring
+#: equal at the three stages of a step, hard contact included (the file also holds the ``fold`` kernel as ``g``).
+KERNEL_CONSTRUCTIONS = ("seed", "fold", "passive", "radau")
 #: Creep-fit error below which a material counts as causal, so that its precursor is band-limit ringing.
 CAUSAL_FIT_ERROR = 1e-2
 #: Lags that take the place of a causal material's discarded precursor (see precursor_correction).
@@ -1027,7 +1029,8 @@ def greens_dataset(
     construction : str
         One of :data:`KERNEL_CONSTRUCTIONS` (``seed``: the precursor is discarded even for a causal
         material, as the paper did; ``fold``: it is replaced by a causal correction; ``passive``: as
-        ``fold`` here, the stage then adds :func:`tyreroad.construction.correct_greens`).
+        ``fold`` here, the stage then adds :func:`tyreroad.construction.correct_greens`; ``radau``: as
+        ``fold`` here, the stage then adds the stage kernel, :func:`tyreroad.stage.radau_greens`).
 
     Returns
     -------

@@ -166,7 +166,8 @@ class LayerKernel:
         greens : xarray.Dataset
             A greens file's contents.
         mode : {"dynamic", "quasistatic"}
-            ``dynamic``: the time-domain lags ``g`` with the creep tail (when the file has one);
+            ``dynamic``: the time-domain lags ``g`` with the creep tail (when the file has one), or, for a file
+            of ``construction = 'radau'``, the stage kernel (:meth:`tyreroad.stage.StageKernel.from_greens`);
             ``quasistatic``: ``g_static``.
         material : tyreroad.material.Material, optional
             The layer's material: the backing force of dynamic runs.
@@ -184,6 +185,11 @@ class LayerKernel:
             kernel = cls.quasistatic(greens["g_static"].transpose("dx", "dy").values, c, name)
             # the study's sample rate stays with the static kernel: loadings sample time with it
             return cls(kernel.lags, True, fs, element_size=c, response=response, name=name)
+        if str(greens.attrs.get("construction")) == "radau":
+            # the Radau IIA-3 stage kernel (greens.construction: radau): three unknowns per element and step
+            from .stage import StageKernel
+
+            return StageKernel.from_greens(greens, material, response)
         lags = greens["g"].transpose("dx", "dy", "lag").values
         memory = None
         if "tail_compliance" in greens:
@@ -250,8 +256,8 @@ class LayerKernel:
             logger.warning("%s; running anyway (solver.stability: warn)", what)
             return
         raise ValueError(f"{what}. Refused before the first step: select a kernel stable for these springs "
-                         "(greens.construction), soften the springs, or set solver.stability: warn to run and "
-                         "record it")
+                         "(greens.construction: radau is stable for every spring, hard contact included), soften "
+                         "the springs, or set solver.stability: warn to run and record it")
 
     def needs_memory(self, n_steps: int | None) -> bool:
         """True for a dynamic run longer than the kept lags (a one-lag dynamic kernel is memoryless)."""

@@ -204,7 +204,13 @@ def run_greens(
             logger.warning("greens %s: the spring-safe correction misses k_target = %.3g N/m", material_name,
                            k_target)
         logger.info("greens %s: %s", material_name, correction.summary())
-    ds = _judge_kernel(ds, material, shape, settings.construction)
+    if settings.construction == "radau":
+        from .stage import radau_greens
+
+        # the stage kernel beside the fold kernel: its tables, margin (inf by construction) and fidelity
+        ds = radau_greens(ds, material, shape)
+    else:
+        ds = _judge_kernel(ds, material, shape, settings.construction)
     provenance = {
         "material": {material_name: dict(material.config)},
         "greens": dict(greens_cfg),

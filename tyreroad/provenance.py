@@ -49,8 +49,10 @@ STAGE_MODULES: dict[str, tuple[str, ...]] = {
 }
 
 _PACKAGE_DIR = Path(__file__).resolve().parent
-#: Modules whose function-level imports are lazy dispatch, not code of every stage.
-_LAZY_DISPATCH = {"__init__", "pipeline"}
+#: Modules whose function-level imports are lazy dispatch, not code of every stage. ``stage``: its function-level
+#: imports (element FRF, offsets, fidelity) build the Radau stage kernel at the greens stage (whose entries list
+#: them); a contact run reads that kernel from the greens file and runs only the module-level code.
+_LAZY_DISPATCH = {"__init__", "pipeline", "stage"}
 
 
 def _module_file(module: str, package_dir: Path) -> Path | None:

@@ -92,6 +92,7 @@ __all__ = [
     "relaxation_variables",
     "ViscoelasticSprings",
     "MarchSprings",
+    "StageMarchSprings",
     "springs_for_run",
 ]
 
@@ -369,6 +370,99 @@ class MarchSprings:
         self.h += increment[:, None] * self.gain
         self.f_el[:] = self._f
         self.offset = self.h @ self.decay - self._gain_sum * self.f_el
+
+    def for_stages(self, fractions) -> "StageMarchSprings":
+        """These springs in a march with several unknowns per element and step at t_(n-1) + c_i dt (the Radau
+        IIA-3 stage kernel, :func:`tyreroad.stage.stage_springs`)."""
+        return StageMarchSprings(self.table, self.relaxation, self.dt, fractions)
+
+
+class StageMarchSprings:
+    """QLV springs of a stage march (:class:`tyreroad.stage.StageKernel`): the unknowns of step n are the stage
+    compressions at t_(n-1) + c_i dt, stage-major (index i M + e), c_S = 1.
+
+    F_el is taken linear in time from t_(n-1) to each stage time (as :class:`MarchSprings` takes it over a
+    step), so stage i is the single-step recursion over delta_i = c_i dt from the committed state at t_(n-1):
+
+        F_i = max(a_i F_el(zeta_i) + H_i, 0),   (a_i, e_ik, g_ik) = step_coefficients(c_i dt),
+        H_i = sum_k (e_ik h_k,n-1 - g_ik F_el,n-1);
+
+    the step commits the last stage (c_S = 1: exactly :meth:`MarchSprings.commit`). The in-step stiffness a_i k_el
+    differs between the stages (a_1 > a_S: less relaxation within the shorter interval), so these springs are
+    outside the stage kernel's stability argument (springs equal at the stages; :mod:`tyreroad.stage`); their
+    stability is measured (tests/test_radau_config.py), not proven.
+    """
+
+    def __init__(self, table: SpringTable, relaxation: RelaxationFunction, dt: float, fractions):
+        self.table = table
+        self.relaxation = relaxation
+        self.dt = float(dt)
+        self.fractions = np.asarray(fractions, dtype=float)
+        if self.fractions.ndim != 1 or not math.isclose(self.fractions[-1], 1.0, rel_tol=1e-14):
+            raise ValueError(f"stage fractions must end at 1 (the step's end), got {self.fractions}")
+        coefficients = [relaxation.step_coefficients(c * self.dt) for c in self.fractions]
+        self.a_stage = np.array([c[0] for c in coefficients])
+        self.decay_stage = np.stack([c[1] for c in coefficients])  # (S, K)
+        self.gain_stage = np.stack([c[2] for c in coefficients])
+        self.decay, self.gain = self.decay_stage[-1], self.gain_stage[-1]
+        m = table.n_springs
+        self.m = m
+        self.h = np.zeros((m, self.decay.size))
+        self.f_el = np.zeros(m)
+        self.offset = np.zeros(self.fractions.size * m)
+        self._f, self._k = np.empty(m), np.empty(m)
+
+    @property
+    def zeta_step(self) -> float:
+        return self.table.zeta_step
+
+    @property
+    def n_springs(self) -> int:
+        return self.fractions.size * self.m
+
+    @property
+    def max_stiffness(self) -> float:
+        """The stiffest tangent within a step, max_i a_i max k_el [N/m]."""
+        return float(self.a_stage.max() * np.max(self.table.stiffness))
+
+    def start(self) -> None:
+        self.h[:] = 0.0
+        self.f_el[:] = 0.0
+        self.offset[:] = 0.0
+
+    def evaluate_into(self, zeta: np.ndarray, force_out: np.ndarray, stiffness_out: np.ndarray) -> None:
+        m = self.m
+        for i, a in enumerate(self.a_stage):
+            part = slice(i * m, (i + 1) * m)
+            f, k = force_out[part], stiffness_out[part]
+            self.table.evaluate_into(np.ascontiguousarray(zeta[part]), self._f, self._k)
+            np.multiply(self._f, a, out=f)
+            f += self.offset[part]
+            np.multiply(self._k, a, out=k)
+        off = (zeta <= 0.0) | (force_out <= 0.0)
+        force_out[off] = 0.0
+        stiffness_out[off] = 0.0
+
+    def evaluate(self, zeta):
+        z = np.ascontiguousarray(np.asarray(zeta, dtype=float).ravel())
+        f, k = np.empty(z.size), np.empty(z.size)
+        self.evaluate_into(z, f, k)
+        return f, k
+
+    def contact_stiffness(self) -> np.ndarray:
+        k0 = np.asarray(self.table.contact_stiffness(), dtype=float)
+        return np.concatenate([a * k0 for a in self.a_stage])
+
+    def commit(self, zeta: np.ndarray) -> None:
+        """Advance the history by the converged step's last stage (t_n) and set every stage's H for the next."""
+        self.table.evaluate_into(np.ascontiguousarray(np.asarray(zeta, dtype=float)[-self.m:]), self._f, self._k)
+        increment = self._f - self.f_el
+        self.h *= self.decay
+        self.h += increment[:, None] * self.gain
+        self.f_el[:] = self._f
+        m = self.m
+        for i in range(self.fractions.size):
+            self.offset[i * m:(i + 1) * m] = self.h @ self.decay_stage[i] - self.gain_stage[i].sum() * self.f_el
 
 
 def springs_for_run(springs_ds: xr.Dataset, table: SpringTable):

@@ -20,6 +20,12 @@ of the element's samples z_p (dx = scan step). Models (config ``springs.model``)
     not monotonic; F stays non-decreasing because k >= 0.
 ``linear``
     Constant stiffness (classic bedding spring) for zeta > 0.
+``hard``
+    Hard contact: a linear penalty spring of ``hard_stiffness`` (default 1e10 N/m) for zeta > 0, so stiff that
+    its compliance 1 / k is ~3e-6 of the layer's static self-compliance g(0) ~ 3.2e-5 m/N (the springs file
+    states 1 / k, the contact run's log the ratio to the greens file's g(0)). Far past every single-stage
+    kernel's stability limit: dynamic runs need ``greens.construction: radau`` (the configuration refuses
+    anything else).
 
 Time dependence (config ``springs.rheology``): ``elastic`` (default) uses these tables at every rate;
 ``qlv`` lets the force relax with the tread's modulus, F = int R(t - tau) dF(zeta(tau)), R = E(t) / E_s
@@ -113,7 +119,7 @@ __all__ = [
     "ANCHOR_BLOCK",
 ]
 
-SPRING_MODELS = ("single_punch", "sum_of_spots", "linear")
+SPRING_MODELS = ("single_punch", "sum_of_spots", "linear", "hard")
 #: Precisions of the spring tables (config ``springs.table_precision``).
 TABLE_PRECISIONS = ("float64", "float32")
 #: Grid points per float64 force anchor of a float32 table (module docstring): F_j is summed from
@@ -139,6 +145,7 @@ _DEFAULTS: dict[str, Any] = {
     "zeta_step": 1.0e-6,
     "modulus": "quasi_static",
     "linear_stiffness": 1.0e5,
+    "hard_stiffness": 1.0e10,
     "table_precision": "float64",
     "rheology": "elastic",
 }
@@ -268,7 +275,7 @@ class SpringModel:
     Attributes
     ----------
     model : str
-        ``single_punch`` (default), ``sum_of_spots`` or ``linear``.
+        ``single_punch`` (default), ``sum_of_spots``, ``linear`` or ``hard``.
     zeta_max : float
         Upper end of the compression grid [m], >= 1 mm (SPEC 4). Default 1e-3.
     zeta_step : float
@@ -279,6 +286,8 @@ class SpringModel:
         or a value [Pa].
     linear_stiffness : float
         Stiffness of model ``linear`` [N/m]. Default 1e5.
+    hard_stiffness : float
+        Penalty stiffness of model ``hard`` (hard contact) [N/m]. Default 1e10.
     table_precision : str
         ``'float64'`` (default) or ``'float32'``: the precision of the stiffness tables (module
         docstring: float32 rounds k to 6e-8 relative and keeps F its exact integral).
@@ -293,6 +302,7 @@ class SpringModel:
     zeta_step: float = _DEFAULTS["zeta_step"]
     modulus: str | float = _DEFAULTS["modulus"]
     linear_stiffness: float = _DEFAULTS["linear_stiffness"]
+    hard_stiffness: float = _DEFAULTS["hard_stiffness"]
     table_precision: str = _DEFAULTS["table_precision"]
     rheology: str = _DEFAULTS["rheology"]
 
@@ -336,6 +346,8 @@ class SpringModel:
         object.__setattr__(self, "zeta_max", zmax)
         object.__setattr__(self, "zeta_step", step)
         object.__setattr__(self, "linear_stiffness", checks.real(f"{s}.linear_stiffness", self.linear_stiffness, positive=True))
+        object.__setattr__(self, "hard_stiffness",
+                           checks.real(f"{s}.hard_stiffness", self.hard_stiffness, positive=True))
 
     @classmethod
     def from_config(cls, section: Mapping[str, Any] | None) -> "SpringModel":
@@ -1008,7 +1020,7 @@ def element_springs(
     )
 
     attrs: dict[str, Any] = {}
-    if spring_model.model != "linear":
+    if spring_model.model not in ("linear", "hard"):
         # an area is always a whole number of samples: kappa is needed for n^2 + 1 values only
         k_of_count = punch_stiffness(np.arange(n * n + 1) * sample_area, e_s, nu, h)
     if spring_model.model == "single_punch":
@@ -1020,6 +1032,14 @@ def element_springs(
         stiffness = _spot_stiffness(order.astype(np.int64), grid_index.astype(np.int64), n, zeta.size, k_of_count)
         stiffness = stiffness.reshape(n_ex, n_ey, zeta.size)
         attrs["connectivity"] = "4 (samples sharing an edge form one spot)"
+    elif spring_model.model == "hard":
+        # the ratio of 1 / k to the layer's static self-compliance g(0) is logged by the contact run, which reads
+        # g(0) from the greens file (the springs stage does not run the greens code)
+        k_hard = spring_model.hard_stiffness
+        stiffness = np.full((n_ex, n_ey, zeta.size), k_hard)
+        attrs.update(hard_stiffness=k_hard, penalty_compliance=1.0 / k_hard)
+        logger.info("element springs: hard contact, linear penalty springs of %.3g N/m (compliance 1/k = %.3g m/N)",
+                    k_hard, 1.0 / k_hard)
     else:
         stiffness = np.full((n_ex, n_ey, zeta.size), spring_model.linear_stiffness)
         attrs["linear_stiffness"] = spring_model.linear_stiffness

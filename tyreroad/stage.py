@@ -82,8 +82,6 @@ from numba import njit, prange
 import scipy.linalg
 
 from . import checks
-from .cq import _element_laplace_fn, exact_frf
-from .greens import offset_table_index, unique_offsets
 from .history import HistorySum, _StepCounter
 from .influence import offset_matrix
 from .kernel import LayerKernel
@@ -95,7 +93,8 @@ from .springs import SpringTable
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["DENSE_LIMIT", "StageTail", "StageKernel", "StageLoading", "StageRecorder", "StageDenseSubstrate",
+__all__ = ["DENSE_LIMIT", "STAGE_CONSTRUCTION", "STAGE_MARGIN_METHOD", "radau_greens", "stage_variables",
+           "StageTail", "StageKernel", "StageLoading", "StageRecorder", "StageDenseSubstrate",
            "StageFFTHistory", "StageTailHistory", "stage_springs", "stage_table"]
 
 #: Largest patch (elements) of the dense stage substrate (3 M x 3 M matrix: 1600 elements = 184 MB).
@@ -113,6 +112,8 @@ def _crop(table: np.ndarray, shape) -> np.ndarray:
 
 def stage_table(weights: np.ndarray, shape) -> np.ndarray:
     """Block weights at the unique offsets (L, 3, 3, n_offsets) -> offset tables (2 nx - 1, 2 ny - 1, L, 3, 3)."""
+    from .greens import offset_table_index
+
     _, _, index = offset_table_index(shape)
     return np.ascontiguousarray(np.moveaxis(weights[..., index], (3, 4), (0, 1)))
 
@@ -484,7 +485,12 @@ class StageLoading:
 
 
 def stage_springs(springs: SpringTable) -> SpringTable:
-    """The patch's springs tiled over the three stages (stage-major)."""
+    """The patch's springs tiled over the three stages (stage-major); springs with a force history (QLV,
+    :class:`tyreroad.qlv.MarchSprings`) give their stage form (``for_stages``)."""
+    for_stages = getattr(springs, "for_stages", None)
+    if for_stages is not None:
+        return for_stages(RADAU_C)
+
     def tile(a):
         a = np.asarray(a)
         return np.ascontiguousarray(np.tile(a.reshape(-1, a.shape[-1]), (STAGES, 1)))
@@ -562,6 +568,11 @@ class StageKernel(LayerKernel):
         spectrum : RetardationSpectrum, optional
             The creep fit (default :func:`tyreroad.memory.fit_retardation_spectrum` up to fs / 2).
         """
+        # the construction's code (element FRF, offsets) is imported here, not at module level: a contact run reads
+        # the stage kernel from its greens file (from_greens) and runs none of it (tyreroad.provenance)
+        from .cq import _element_laplace_fn, exact_frf
+        from .greens import offset_table_index, unique_offsets
+
         nx, ny = (checks.integer(f"shape[{i}]", v) for i, v in enumerate(shape))
         c = checks.real("element_size", element_size, positive=True)
         fs = checks.real("sample_rate", sample_rate, positive=True)
@@ -589,6 +600,46 @@ class StageKernel(LayerKernel):
         lags = table[:, :, :, 2, :].sum(axis=-1)
         return cls(lags, False, float(sample_rate), None, stage_lags=table, stage_tail=tail,
                    static_table=np.asarray(static_table, dtype=float), **kwargs)
+
+    @classmethod
+    def from_greens(cls, greens, material=None, response=None) -> "StageKernel":
+        """The stage kernel of a greens dataset written with ``greens.construction: radau`` (:func:`radau_greens`);
+        what :meth:`tyreroad.kernel.LayerKernel.from_greens` returns for a dynamic run on such a file. Marches
+        bit-identically to :meth:`from_material` of the same material, patch, rate and lags.
+
+        Raises
+        ------
+        ValueError
+            If the dataset holds no stage kernel (another construction's file).
+        """
+        if "stage_weight" not in greens:
+            raise ValueError(f"greens {greens.attrs.get('material', '?')}: no stage kernel (stage_weight) in a file "
+                             f"of construction {greens.attrs.get('construction')!r}; expected one written with "
+                             "greens.construction: radau")
+        fs = float(greens.attrs["sample_rate"])
+        table = greens["stage_weight"].transpose("dx", "dy", "lag", "stage_out", "stage_in").values
+        static = greens["stage_static"].transpose("dx", "dy").values
+        tail = None
+        if "stage_tail_r" in greens:
+            tail = StageTail(
+                np.asarray(greens["stage_tail_shape"].transpose("dx", "dy", "stage_out").values, dtype=float),
+                np.asarray(greens["stage_tail_amplitude"].values, dtype=float),
+                np.asarray(greens["stage_tail_rate"].values, dtype=float),
+                np.asarray(greens["stage_tail_u"].transpose("stage_term", "stage_out").values, dtype=float),
+                np.asarray(greens["stage_tail_r"].values, dtype=float),
+                np.asarray(greens["stage_tail_v"].transpose("stage_term", "stage_in").values, dtype=float),
+                int(greens.attrs["stage_tail_delay"]),
+            )
+        name = str(greens.attrs.get("material", getattr(material, "name", "kernel")))
+        c = greens.attrs.get("element_size")
+        backing = None
+        if material is not None:
+            n_fft = max(int(float(greens.attrs.get("n_fft", 4096))), 4096)
+            backing = functools.partial(backing_force, material=material, sample_rate=fs, n_fft=n_fft)
+        k_crit = float(greens["critical_stiffness"].values) if "critical_stiffness" in greens else None
+        return cls.from_tables(table, fs, tail, static, element_size=None if c is None else float(c),
+                               response=response, backing=backing, name=f"{name} Radau IIA-3",
+                               critical_stiffness=k_crit, construction=STAGE_CONSTRUCTION)
 
     # ------------------------------------------------------------------ the march
     def stage_table(self, shape) -> np.ndarray:
@@ -674,6 +725,9 @@ class StageKernel(LayerKernel):
         ``worst`` the same maximised over offsets (each over its own W_0[3, 3] at offset 0); ``last_kept``
         max |W_{L-1}| / |W_0| of the full weights at offset 0.
         """
+        from .cq import _element_laplace_fn
+        from .greens import offset_table_index, unique_offsets
+
         c = float(self.element_size)
         nx, ny = shape
         offsets = unique_offsets((nx, ny)) * c
@@ -692,3 +746,105 @@ class StageKernel(LayerKernel):
         cut = np.abs(rem).max(axis=(1, 2)).sum(axis=0)  # per offset
         full_last = np.abs(self.stage_lags[centre][L - 1]).max()
         return {"excitation": float(cut[0] / g00), "worst": float(cut.max() / g00), "last_kept": float(full_last / g00)}
+
+
+# --------------------------------------------------------------------------------------------
+# the greens file (greens.construction: radau)
+# --------------------------------------------------------------------------------------------
+#: ``greens.construction`` of the stage kernel; its greens file holds the variables of :func:`stage_variables`.
+STAGE_CONSTRUCTION = "radau"
+#: What ``critical_stiffness = inf`` of a stage kernel's greens file covers (its ``method`` attribute).
+STAGE_MARGIN_METHOD = (
+    "radau: by construction (A-stable Radau IIA-3 convolution quadrature of a passive layer), for springs equal at "
+    "the three stages of a step (linear springs, hard contact included); springs that differ between the stages of "
+    "a step (a nonlinear spring, a contact opening within a step) are not covered by this argument "
+    "(tyreroad.stage module docstring)")
+
+_STAGE_LABELS = {"stage_out": "output stage i", "stage_in": "input (force) stage j"}
+
+
+def stage_variables(kernel: "StageKernel") -> tuple[dict, dict]:
+    """(variables, coords) of a stage kernel for its greens dataset (the inverse of :meth:`StageKernel.from_greens`):
+    the kept block weights, G(0) and the creep tail's recursion data, as stored float64 (a round trip is exact)."""
+    c = ", ".join(f"{v:.6f}" for v in RADAU_C)
+    coords = {name: (name, np.arange(STAGES), {"units": "1", "long_name": f"{label} of a step (time t_(n-1) + c h, "
+                                                                             f"c = {c})"})
+              for name, label in _STAGE_LABELS.items()}
+    out = {
+        "stage_weight": (("dx", "dy", "lag", "stage_out", "stage_in"), kernel.stage_lags, {
+            "units": "m/N", "long_name": "Radau IIA-3 convolution-quadrature block weights W_l[i, j]: displacement at "
+            "stage i of step n per unit force at stage j of step n - lag (the march's kept lags)"}),
+        "stage_static": (("dx", "dy"), kernel.static_table, {
+            "units": "m/N", "long_name": "G(0), the element FRF at omega = 0: the relaxed layer the stage kernel's "
+            "tail sums to"}),
+    }
+    tail = kernel.stage_tail
+    if tail is not None:
+        out.update({
+            "stage_tail_shape": (("dx", "dy", "stage_out"), tail.shape_table, {
+                "units": "1/m", "long_name": "spatial factor R[dx, dy, i] (m/N x Pa) of the creep tail's block weights "
+                "at output stage i, lags >= stage_tail_delay (sum rule: a held force relaxes to G(0))"}),
+            "stage_tail_amplitude": ("stage_term", tail.amplitude, {
+                "units": "1/(Pa s)", "long_name": "J_k / tau_k of the retardation terms the tail keeps"}),
+            "stage_tail_rate": ("stage_term", tail.rates, {"units": "1/s", "long_name": "1 / tau_k"}),
+            "stage_tail_u": (("stage_term", "stage_out"), tail.u, {
+                "units": "1", "long_name": "u_k = (I + h A / tau_k)^-1 1 of the rational image W_l = u r^(l-1) v^T"}),
+            "stage_tail_v": (("stage_term", "stage_in"), tail.v, {
+                "units": "s", "long_name": "v_k^T = e_3^T W_0 of the rational image W_l = u r^(l-1) v^T"}),
+            "stage_tail_r": ("stage_term", tail.r, {
+                "units": "1", "long_name": "r_k = R(-h / tau_k), the Radau IIA-3 stability function: the recursion "
+                "factor per step"}),
+        })
+    return out, coords
+
+
+def radau_greens(ds, material, shape):
+    """The greens stage's part for ``greens.construction: radau`` (:func:`tyreroad.pipeline.run_greens`).
+
+    ``ds`` is the ``fold`` greens dataset of the material (its ``g`` stays: the single-stage kernel of the same
+    FRF, not what a run marches); this adds the stage kernel (:func:`stage_variables`, built for the patch
+    ``shape`` at the file's sample rate and kept lags), its stability margin -- ``critical_stiffness = inf``
+    with the method :data:`STAGE_MARGIN_METHOD` -- and its fidelity to the element FRF
+    (:func:`tyreroad.fidelity.kernel_fidelity` of the march's own transfer function, the step's end value for a
+    force sampled at the stages).
+
+    Raises
+    ------
+    ValueError
+        If the stage kernel of a causal material misses its FRF by more than the fidelity limits (as the
+        other constructions are refused), or the patch is larger than the dense stage substrate serves.
+    """
+    from .fidelity import kernel_fidelity
+
+    nx, ny = (int(n) for n in shape)
+    if nx * ny > DENSE_LIMIT:
+        raise ValueError(f"greens {material.name}: greens.construction: radau has a dense stage substrate only "
+                         f"(patches up to {DENSE_LIMIT} elements, got {nx} x {ny})")
+    fs = float(ds.attrs["sample_rate"])
+    n_lags = int(ds.attrs["n_lags"])
+    kernel = StageKernel.from_material(material, (nx, ny), float(ds.attrs["element_size"]), fs, n_lags,
+                                       n_fft_backing=max(int(ds.attrs.get("n_fft", 4096)), 4096))
+    fidelity = kernel_fidelity(kernel, material, (nx, ny))
+    logger.info("greens %s (radau): fidelity to the element FRF %s", material.name, fidelity.describe())
+    if not fidelity.faithful and int(ds.attrs.get("causal_material", 1)):
+        raise ValueError(
+            f"greens {material.name}: the 'radau' kernel misses the element FRF by {fidelity.magnitude:.2%} of |G_0| "
+            f"/ {fidelity.phase:.4f} rad over {fidelity.band[0]:g}-{fidelity.band[1]:g} Hz (limits 1 % / 0.01 rad, "
+            "tyreroad.fidelity): refused, no file written")
+    variables, coords = stage_variables(kernel)
+    ds = ds.assign_coords(coords)
+    ds["g"].attrs["long_name"] = ("element Green's function, discrete impulse response of the 'fold' single-stage "
+                                  "kernel (a dynamic run on this file marches the Radau stage weights stage_weight)")
+    margin = {
+        "critical_stiffness": ((), math.inf, {
+            "units": "N/m", "long_name": "stiffest element spring for which the march is stable (inf: every spring, "
+            "hard contact included)", "method": STAGE_MARGIN_METHOD}),
+        "critical_theta": ((), math.nan, {
+            "units": "rad", "long_name": "theta = 2 pi f / fs where critical_stiffness is reached (NaN: none)"}),
+    }
+    ds = ds.assign({**variables, **margin, **fidelity.variables()})
+    ds.attrs["construction"] = STAGE_CONSTRUCTION
+    ds.attrs["stage_tail_delay"] = int(kernel.stage_tail.delay) if kernel.stage_tail is not None else 0
+    logger.info("greens %s (radau): %d kept block lags, %s; critical stiffness inf (%s)", material.name, n_lags,
+                "no tail" if kernel.stage_tail is None else kernel.stage_tail.describe(), "springs equal at the stages")
+    return ds
