@@ -421,17 +421,32 @@ def test_rolling_report_judges_alternation_against_the_mean_force_and_flat_road_
         "margin_critical_stiffness": ("case", [1.2e5, 1.2e5, 1.2e5, np.nan]),
         "max_spring_stiffness": ("case", [4e4, 4e4, 4e4, np.nan]),
         "contact_holes": ("case", [0, 2, 0, 0]), "flat_road": ("case", [1, 1, 1, 1]),
+        "element_rate": ("case", [5e3, 1e4, 1.2e4, 5e3]), "sample_rate": ("case", [51200.0] * n),
         "centre_offset": ("case", [1e-4, 2e-4, 3e-4, 0.0]), "steady_loss_force": ("case", [1.0, 1.2, 1.3, 0.0]),
     })
     assert _untrustworthy_rolling_cases(study, THRESHOLDS) == [0, 1]
     text = "\n".join(_rolling_stability_lines(study, THRESHOLDS))
-    assert "| tread | 5 | 1.2e+05 | 4e+04 | 3.70e-02 | 0 | fails |" in text
-    assert "| tread | 10 | 1.2e+05 | 4e+04 | 5.00e-05 | 2 | fails |" in text
-    assert "| tread | 20 | 1.2e+05 | 4e+04 | 2.00e-05 | 0 | holds |" in text
+    assert "| tread | 5 | 1.2e+05 | 4e+04 | 3.70e-02 | nan | nan | 0 | fails |" in text
+    assert "| tread | 10 | 1.2e+05 | 4e+04 | 5.00e-05 | nan | nan | 2 | fails |" in text
+    assert "| tread | 20 | 1.2e+05 | 4e+04 | 2.00e-05 | nan | nan | 0 | holds |" in text
     assert "0.100, 0.200, 0.300 mm (monotone)" in text and "1, 1.2, 1.3 N (monotone)" in text
     # on a rough road, a pass whose texture input reaches past fs/4 is reported, not judged
     rough = study.assign(flat_road=("case", [0, 0, 0, 0]), element_rate=("case", [5e3, 1e4, 2e4, 5e3]),
                          sample_rate=("case", [51200.0] * n), fs2_alternation=("case", [3.7e-2, 5e-5, 2e-4, np.nan]))
     assert _untrustworthy_rolling_cases(rough, THRESHOLDS) == [0]
-    assert "| tread | 20 | 1.2e+05 | 4e+04 | 2.00e-04 | (rough road) | not judged (input near fs/2) |" in "\n".join(
+    assert "| tread | 20 | 1.2e+05 | 4e+04 | 2.00e-04 | nan | nan | (rough road) | not judged (input near fs/2) |" in "\n".join(
         _rolling_stability_lines(rough, THRESHOLDS))
+
+
+def test_top_band_amplitude_tells_an_instability_from_the_element_ripple():
+    """A stationary ripple at the element rate (10 kHz at 10 m/s over 1 mm elements) has no top-band
+    component and does not grow; a growing fs/2 alternation has both."""
+    from tyreroad.rolling.dataset import fs2_band_amplitude
+
+    fs, n = 51200.0, np.arange(600)
+    ripple = 500.0 * (1 + 1.5e-3 * np.sin(2 * np.pi * 1e4 * n / fs))
+    band, growth = fs2_band_amplitude(ripple)
+    assert band < 1e-5 and growth == pytest.approx(1.0, abs=0.05)
+    alternation = 500.0 * (1 + 1e-4 * (-1.0) ** n * 1.005 ** n)
+    band, growth = fs2_band_amplitude(alternation)
+    assert band > 1e-3 and growth > 5.0

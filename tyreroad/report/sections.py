@@ -803,20 +803,20 @@ def _untrustworthy_rolling_cases(study, t) -> list[int]:
     bad = []
     for i in range(study.sizes["case"]):
         alternation = value("fs2_alternation", i, float("nan"))
-        if (value("chatter", i) > t["rolling_chatter_max"]
+        flat = bool(value("flat_road", i))  # no texture: the chatter's fluctuation is only the element ripple
+        if ((not flat and value("chatter", i) > t["rolling_chatter_max"])
                 or (np.isfinite(alternation) and alternation > t["rolling_alternation_max"]
                     and _alternation_is_judged(study, i))
-                or (value("flat_road", i) and value("contact_holes", i) > 0)):
+                or (flat and value("contact_holes", i) > 0)):
             bad.append(i)
     return bad
 
 
 def _alternation_is_judged(study, i) -> bool:
-    """Whether case ``i``'s fs/2 alternation can only be numerical: the road texture's input (v / element
-    size) stays below a quarter of the sample rate, or the road is flat. Faster passes drive the force near
-    fs/2 themselves, so their fourth difference is partly physics and only reported."""
-    if "flat_road" in study and study["flat_road"].values[i]:
-        return True
+    """Whether case ``i``'s fs/2 alternation can only be numerical: the road's input (v / element size: the
+    texture, and on any road the elements entering the contact) stays below a quarter of the sample rate.
+    Faster passes drive the force near fs/2 themselves, so their fourth difference is partly physics and
+    only reported."""
     if "element_rate" not in study or "sample_rate" not in study:
         return True
     return float(study["element_rate"].values[i]) <= 0.25 * float(study["sample_rate"].values[i])
@@ -832,11 +832,15 @@ def _rolling_stability_lines(study, t) -> list[str]:
     lines = ["", f"Stability of the dynamic passes (tyreroad.stability): the kernel's margin k_crit over the unit "
              f"circle, the stiffest contact spring of the pass, and the fs/2 alternation of the force over the "
              f"steady part relative to the steady mean force (limit {limit:.0e}, judged where the road's input v / "
-             f"element size stays below fs/4: faster passes put real force content near fs/2)"
+             f"element size stays below fs/4: faster passes put real force content near fs/2); beside it, the "
+             f"largest component in the top band 0.9-1 x fs/2 over the mean force and the growth of the fourth "
+             f"difference from the first to the last third of the steady part (a march instability sits in the "
+             f"top band or grows; the ripple of elements entering the contact sits at v / element size and stays)"
              + (", and the most force-free elements inside a row of the flat road's contact (limit 0)"
                 if "flat_road" in study and study["flat_road"].values.any() else "") + ".", "",
-             "| material | v [m/s] | k_crit [N/m] | stiffest spring [N/m] | fs/2 alternation | holes | verdict |",
-             "|---|---|---|---|---|---|---|"]
+             "| material | v [m/s] | k_crit [N/m] | stiffest spring [N/m] | fs/2 alternation | top-band amplitude | "
+             "growth | holes | verdict |",
+             "|---|---|---|---|---|---|---|---|---|"]
     bad = set(_untrustworthy_rolling_cases(study, t))
     for i in dynamic:
         margin = float(study["margin_critical_stiffness"].values[i]) if "margin_critical_stiffness" in study else np.nan
@@ -844,8 +848,11 @@ def _rolling_stability_lines(study, t) -> list[str]:
         holes = (str(int(study["contact_holes"].values[i])) if "flat_road" in study and study["flat_road"].values[i]
                  else "(rough road)")
         verdict = "fails" if i in bad else "holds" if _alternation_is_judged(study, i) else "not judged (input near fs/2)"
+        band = float(study["fs2_band_amplitude"].values[i]) if "fs2_band_amplitude" in study else np.nan
+        growth = float(study["alternation_growth"].values[i]) if "alternation_growth" in study else np.nan
         lines.append(f"| {study['material'].values[i]} | {float(study['speed'].values[i]):g} | {margin:.3g} | "
-                     f"{stiff:.3g} | {float(study['fs2_alternation'].values[i]):.2e} | {holes} | {verdict} |")
+                     f"{stiff:.3g} | {float(study['fs2_alternation'].values[i]):.2e} | {band:.1e} | {growth:.2f} | "
+                     f"{holes} | {verdict} |")
     if "flat_road" in study:
         for material in dict.fromkeys(study["material"].values.astype(str)):
             rows = [i for i in dynamic if str(study["material"].values[i]) == material and study["flat_road"].values[i]]

@@ -80,6 +80,28 @@ def rolling_dataset(result: RollingResult, info: Mapping[str, float], mode: str,
     return xr.Dataset(data, coords=coords, attrs=attrs)
 
 
+def fs2_band_amplitude(force, fraction: float = 0.9) -> tuple[float, float]:
+    """The force's largest spectral component in the top band [fraction, 1] x fs/2, over its mean, and how
+    the fourth difference grows along the record (rms over its last third / over its first third).
+
+    The fourth-difference measure (:func:`tyreroad.stability.fs2_alternation`) also sees real content well
+    below fs/2 (on a rolling pass, the ripple of elements entering the contact at v / element size). A
+    march instability sits in the top band or grows; a ripple sits at the element rate and stays. Hann
+    window, cubic trend removed; (NaN, NaN) for fewer than 32 samples.
+    """
+    f = np.asarray(force, dtype=float)
+    if f.size < 32 or not np.mean(f) > 0:
+        return float("nan"), float("nan")
+    n = np.arange(f.size)
+    x = f - np.polyval(np.polyfit(n, f, 3), n)
+    spectrum = np.abs(np.fft.rfft(x * np.hanning(f.size))) * 4.0 / f.size  # Hann: amplitude of a pure tone
+    top = np.fft.rfftfreq(f.size) >= 0.5 * fraction
+    d4 = np.diff(f, 4)
+    third = d4.size // 3
+    first, last = np.sqrt(np.mean(d4[:third] ** 2)), np.sqrt(np.mean(d4[-third:] ** 2))
+    return float(spectrum[top].max() / np.mean(f)), float(last / first) if first > 0 else float("nan")
+
+
 def contact_holes(run: xr.Dataset) -> int:
     """The most elements without force inside a row's contact, over the pass's steady snapshots.
 
@@ -144,6 +166,8 @@ def aggregate_rolling(runs: Sequence[xr.Dataset], band_limits=(100.0, 5000.0)) -
             "max_spring_stiffness": float(np.max(r["max_spring_stiffness"].values, initial=0.0))
             if "max_spring_stiffness" in r and r.attrs["mode"] == "dynamic" else float("nan"),
             "contact_holes": contact_holes(r),
+            "fs2_band_amplitude": fs2_band_amplitude(fluct)[0] if r.attrs["mode"] == "dynamic" else float("nan"),
+            "alternation_growth": fs2_band_amplitude(fluct)[1] if r.attrs["mode"] == "dynamic" else float("nan"),
             "element_rate": float(r.attrs["speed"]) / float(r.attrs["element_size"]),
             "sample_rate": 1.0 / dt,
             "flat_road": int("z1" in r and float(np.ptp(r["z1"].values)) == 0.0),
@@ -177,6 +201,10 @@ def aggregate_rolling(runs: Sequence[xr.Dataset], band_limits=(100.0, 5000.0)) -
         "contact_holes": ("1", "most elements without force between a row's first and last element in contact, "
                                "over the steady snapshots (tyreroad.rolling.dataset.contact_holes)"),
         "flat_road": ("1", "1 where the strip is flat (all matching heights equal): contact holes are numerical"),
+        "fs2_band_amplitude": ("1", "largest component of the steady force in 0.9-1 x fs/2, over the steady mean "
+                                    "force (tyreroad.rolling.dataset.fs2_band_amplitude; NaN: quasi-static)"),
+        "alternation_growth": ("1", "rms fourth difference of the steady force over its last third, over its first "
+                                    "third (> 1: growing; NaN: quasi-static)"),
         "element_rate": ("Hz", "elements passed per second, v / element size: the road texture's input reaches "
                                "about this frequency"),
         "sample_rate": ("Hz", "the pass's time-step rate"),
