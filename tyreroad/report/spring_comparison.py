@@ -125,11 +125,13 @@ def spring_comparison_section(study: xr.Dataset, spectra: Sequence[xr.Dataset], 
         lines.append("Relaxation fit, largest relative error of E(f)/E_qs over 1e-7 Hz … 1 MHz (R(0): the "
                      "fitted short-time ratio; a: the spring's stiffness factor within one march step, "
                      "F = a F_el(ζ) + history; a_N = R_inf + Σ r_k β_k 2/(1 + e_k): its factor for a period-2 "
-                     "(fs/2) oscillation): " + "; ".join(fits) + ". The loss-scaled variants are not causal: "
-                     "their springs relax with the nearest causal relaxation (as their layer tail creeps with the "
-                     "nearest causal creep); K*(f) uses their exact E(f).")
+                     "(fs/2) oscillation): " + "; ".join(fits) + ". A material that is not causal (the seed's "
+                     "constant-|E| loss variants, frequency domain only) would relax with its nearest causal "
+                     "relaxation; the study's materials are causal.")
         lines.append("")
 
+    reference_greens = _read(own_dir / "greens" / f"{study.attrs.get('reference_material', 'tread')}.nc")
+    construction = "unknown" if reference_greens is None else str(reference_greens.attrs.get("construction", "unknown"))
     elastic_study = _read(elastic_dir / "study.nc")
     if elastic_study is None:
         lines += [f"The elastic study's `{elastic_dir / 'study.nc'}` is missing: run the default study "
@@ -139,9 +141,11 @@ def spring_comparison_section(study: xr.Dataset, spectra: Sequence[xr.Dataset], 
                   "The fs/2 alternation is the stability record of each run (fourth difference of the force / 16 "
                   "over the run's last fifth, relative to the force; `tyreroad.stability`). QLV springs are "
                   "stiffer at the march's time step (by a, and at fs/2 by a_N, both listed with the relaxation fit; "
-                  "a_N is close to |E(fs/2)|/E(0), as a consistent discretization must be), so they pass the "
-                  "kernel's fs/2 limit k_crit earlier and further, and the period-2 alternation grows faster. The "
-                  "instability is the kernel's (its lag table at z = −1 is not passive): the springs only expose it. "
+                  "a_N is close to |E(fs/2)|/E(0), as a consistent discretization must be), so on a kernel with a "
+                  "finite margin they pass its k_crit earlier and further; this study's kernel "
+                  f"(`greens.construction: {construction}`"
+                  f"{', stable for every spring equal at the stages of a step' if construction == 'radau' else ''}) "
+                  "records each run's alternation. "
                   f"Cases marked † have an alternation above {ALTERNATION_FLAG:g} of the force: their K(d), K_sat and "
                   "the claims read from them carry the march's instability, not the springs' physics.", "",
                   "| case | K_sat elastic [MN/m] | K_sat QLV [MN/m] | change | fs/2 alternation elastic | "
