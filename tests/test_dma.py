@@ -268,3 +268,20 @@ def test_material_command_prints_a_preset_that_plans(monkeypatch, tmp_path):
     result = CliRunner().invoke(cli.main, ["material", "config/compounds/example-dma.csv"])
     assert result.exit_code == 0 and "(no reference temperature: not shifted)" in result.output
     assert yaml.safe_load(result.output)["materials"]["example-dma"]["quasi_static_modulus"] == "zero_frequency"
+
+
+def test_greens_file_carries_the_temperature_and_shift_factor():
+    """The greens stage of a temperature variant records T and a_T (a 3 x 3 patch, fold kernel: seconds)."""
+    from tyreroad.greens import greens_dataset
+
+    mats = {"dma": _table(reference_temperature=23.0, shift=WLF, quasi_static_modulus=2.5e7),
+            "dma-T0": {"base": "dma", "temperature": 0.0}}
+    ds = greens_dataset(material_from_config("dma-T0", mats), n_elements=(3, 3), element_size=1e-3,
+                        sample_rate=51200.0, n_lags=64, n_fft=4096, construction="fold")
+    assert ds.attrs["temperature"] == 0.0 and ds.attrs["shift_factor"] == shift_factor(WLF, 0.0, 23.0)
+    assert ds.attrs["vertical_shift_factor"] == 1.0
+    plain = greens_dataset(material_from_config("tread", {"tread": {
+        "model": "fractional_kelvin_voigt", "E0": 2.5e7, "E1": 5.0e7, "alpha": 0.24, "f1": 1000.0,
+        "poisson_ratio": 0.49, "density": 1100.0, "thickness": 0.01}}), n_elements=(3, 3), element_size=1e-3,
+        sample_rate=51200.0, n_lags=64, n_fft=4096, construction="fold")
+    assert "shift_factor" not in plain.attrs
