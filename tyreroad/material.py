@@ -24,6 +24,18 @@ Models (config key ``model``)
     fitted model is a causal extrapolation (constant E' and vanishing eta far outside). With fixed
     relaxation times the error of representing one Debye peak falls like the squared grid spacing
     (about 5e-4 relative at 10 per decade), which is far below the scatter of measured DMA data.
+    The points may come from ``table_file`` (CSV, :func:`read_dma_table`; read when the preset is built,
+    so at planning time, and inlined into the resolved preset).
+    Temperature (issue 25): with ``reference_temperature`` T_ref [degC] (the master curve's) and ``shift``
+    (:func:`shift_factor`: WLF ``{model: wlf, C1, C2}`` or ``{model: arrhenius, activation_energy}``) the
+    preset runs at ``temperature`` T [degC] (default T_ref) as E(f; T) = b_T E_ref(f a_T): the fit's
+    relaxation times are multiplied by a_T, so the shifted material is the same causal series. The vertical
+    factor b_T = (T + 273.15) / (T_ref + 273.15) applies only with ``vertical_shift: true`` (default false:
+    master curves are usually built and their shift factors fitted with the horizontal shift alone, applying
+    b_T to such a curve counts the temperature twice, and b_T, the entropy elasticity of the rubbery state,
+    is wrong in the glassy region); it scales a numeric ``quasi_static_modulus`` too. ``temperatures: [T,
+    ...]`` expands (:func:`expand_temperatures`) into the variants ``<name>-T<T:g>: {base: <name>,
+    temperature: T}``; a variant's own ``temperature`` wins over its base's.
 
 Variants
 --------
@@ -531,7 +543,8 @@ def shift_factor(shift: Mapping[str, Any], temperature: float, reference_tempera
     if model == "wlf":
         c1, c2 = float(shift["C1"]), float(shift["C2"])
         if c2 + t - t_ref <= 0:
-            raise ValueError(f"WLF shift singular: C2 + T - T_ref = {c2:g} + {t:g} - {t_ref:g} = {c2 + t - t_ref:g} <= 0")
+            raise ValueError(f"WLF shift singular: C2 + T - T_ref = {c2:g} + {t:g} - {t_ref:g} = "
+                             f"{c2 + t - t_ref:g} <= 0")
         return 10.0 ** (-c1 * (t - t_ref) / (c2 + t - t_ref))
     if model == "arrhenius":
         e_a = float(shift["activation_energy"])
