@@ -301,7 +301,8 @@ def test_rolling_materials_default_to_the_study_and_its_first():
 # Every overlay under config/ runs as shipped
 # --------------------------------------------------------------------------------------------
 #: The targets each shipped overlay documents (its header's snakemake command); () is the default target.
-OVERLAY_TARGETS = {"test.yaml": (), "footprint.yaml": (), "rolling-flat.yaml": ("rolling",), "springs-qlv.yaml": ()}
+OVERLAY_TARGETS = {"test.yaml": (), "footprint.yaml": (), "rolling-flat.yaml": ("rolling",), "springs-qlv.yaml": (),
+                   "compound-temperature.yaml": ()}
 _SURFACES_DONE: dict = {}  # surface specs already run, across overlays (YAML text -> heights)
 
 

@@ -128,6 +128,19 @@ def test_recipe_your_compound_plans(repo):
     planned = _plan_recipe("your compound", repo)
     assert {"results/greens/mycompound.nc", "results/contact/iso10844/mycompound/dynamic_500.nc",
             "results/stiffness_spectrum/iso10844/mycompound.nc", "results/stiffness_spectrum.nc"} <= planned
+    assert {"results/greens/mycompound-T0.nc", "results/contact/iso10844/mycompound-T40/dynamic_500.nc"} <= planned
+
+
+def test_recipe_your_compound_checks_its_table(repo):
+    """The recipe's `tyreroad material` line runs as written and prints a preset block with the shift factors."""
+    import yaml
+
+    commands = _commands(_recipe("your compound"), "material")
+    assert len(commands) == 1
+    proc = _tyreroad(commands[0][1:], repo)
+    assert proc.returncode == 0, proc.stderr
+    assert "# example-dma-T0: T = 0 degC, a_T = 391.4," in proc.stdout and "Kramers-Kronig" in proc.stdout
+    assert yaml.safe_load(proc.stdout)["materials"]["example-dma"]["temperatures"] == [0.0, 40.0]
 
 
 def test_recipe_k_star_plans_and_exports(repo, tmp_path):

@@ -3,8 +3,9 @@
     tyreroad run [TARGET ...] [-c overlay.yaml ...] [-j N] [-n]     the right Snakemake call
     tyreroad kstar MATERIAL --preload 0.12mm [--third-octave] [--csv out.csv]
     tyreroad info FILE
+    tyreroad material TABLE.csv --reference-temperature 23 --wlf 8.86 101.6 --temperature 0 [-o preset.yaml]
 
-The logic is in :mod:`tyreroad.runner`, :mod:`tyreroad.kstar` and :mod:`tyreroad.info`.
+The logic is in :mod:`tyreroad.runner`, :mod:`tyreroad.kstar`, :mod:`tyreroad.info` and :mod:`tyreroad.dma`.
 """
 
 from __future__ import annotations
@@ -90,6 +91,52 @@ def info(file) -> None:
         click.echo(describe(file))
     except (FileNotFoundError, OSError, ValueError) as err:
         raise click.ClickException(str(err)) from None
+
+
+@main.command(help="Fit and check a compound from a DMA master curve (CSV: frequency [Hz], storage_modulus [Pa], "
+                   "loss_factor [-] or loss_modulus [Pa]) and print a materials: preset block to paste into a "
+                   "config: the causal fit's error, the Kramers-Kronig check (E' implied by the table's loss "
+                   "against its E'), and per study temperature the shift factor a_T and E', eta at 1 kHz.")
+@click.argument("table", type=click.Path(dir_okay=False))
+@click.option("--name", default=None, help="Preset name (default: from the file name).")
+@click.option("--reference-temperature", type=float, default=None, metavar="DEGC",
+              help="Temperature of the master curve [degC].")
+@click.option("--wlf", nargs=2, type=float, default=None, metavar="C1 C2",
+              help="WLF shift: log10 a_T = -C1 (T - T_ref) / (C2 + T - T_ref), C2 in K.")
+@click.option("--arrhenius", type=float, default=None, metavar="EA",
+              help="Arrhenius shift with activation energy E_a [J/mol].")
+@click.option("-t", "--temperature", "temperatures", type=float, multiple=True, metavar="DEGC",
+              help="Study temperature [degC] (repeatable): each becomes the variant <name>-T<T>.")
+@click.option("--quasi-static-modulus", type=float, default=None, metavar="PA",
+              help="Relaxed modulus from data [Pa] (default: the fit's extrapolation below the table).")
+@click.option("--fit-tolerance", type=float, default=None, help="Largest relative fit error [-] (default 0.02).")
+@click.option("--poisson-ratio", type=float, default=0.49, show_default=True, help="nu [-].")
+@click.option("--density", type=float, default=1100.0, show_default=True, help="rho [kg/m^3].")
+@click.option("--thickness", type=float, default=0.01, show_default=True, help="Tread thickness h [m].")
+@click.option("-o", "--output", default=None, type=click.Path(dir_okay=False),
+              help="Write the preset block here instead of standard output.")
+def material(table, name, reference_temperature, wlf, arrhenius, temperatures, quasi_static_modulus, fit_tolerance,
+             poisson_ratio, density, thickness, output) -> None:
+    from .dma import check_compound, preset_block
+
+    if wlf and arrhenius is not None:
+        raise click.UsageError("give one shift: --wlf C1 C2 or --arrhenius EA, not both")
+    shift = ({"model": "wlf", "C1": wlf[0], "C2": wlf[1]} if wlf
+             else {"model": "arrhenius", "activation_energy": arrhenius} if arrhenius is not None else None)
+    try:
+        check = check_compound(table, name=name, reference_temperature=reference_temperature, shift=shift,
+                               temperatures=temperatures, quasi_static_modulus=quasi_static_modulus,
+                               fit_tolerance=fit_tolerance, poisson_ratio=poisson_ratio, density=density,
+                               thickness=thickness)
+    except (ValueError, FileNotFoundError) as err:
+        raise click.ClickException(str(err)) from None
+    text = preset_block(check)
+    if output:
+        Path(output).write_text(text)
+        click.echo(check.summary(), err=True)
+        click.echo(f"wrote {output}", err=True)
+    else:
+        click.echo(text, nl=False)
 
 
 if __name__ == "__main__":  # pragma: no cover

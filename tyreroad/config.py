@@ -43,7 +43,7 @@ from . import surface as S
 from .greens import GreensSettings
 from .loading import LoadingPreset, constant_acceleration_steps, uniform_grid_steps
 from .claim6 import Claim6Settings
-from .material import causality_error, material_from_config
+from .material import causality_error, expand_temperatures, material_from_config
 from .rolling import RollingSettings
 from .sensitivity import planned_points, point_surface_spec
 from .solver import SolverSettings
@@ -64,6 +64,7 @@ __all__ = [
     "sensitivity_points",
     "rolling_materials",
     "time_domain_materials",
+    "expand_material_temperatures",
 ]
 
 
@@ -123,11 +124,30 @@ def merge(base: Mapping[str, Any], overlay: Mapping[str, Any]) -> dict[str, Any]
 
 
 def load_config(*paths: str | Path) -> dict[str, Any]:
-    """Read one or more YAML config files, later ones overlaid on earlier ones."""
+    """Read one or more YAML config files, later ones overlaid on earlier ones (temperature variants expanded,
+    :func:`expand_material_temperatures`)."""
     config: dict[str, Any] = {}
     for path in paths:
         config = merge(config, read_yaml(path))
-    return config
+    return expand_material_temperatures(config)
+
+
+def expand_material_temperatures(config: Mapping[str, Any]) -> dict[str, Any]:
+    """``config`` with each table preset's ``temperatures: [T, ...]`` expanded into the ``base:`` variants
+    ``<name>-T<T:g>`` (:func:`tyreroad.material.expand_temperatures`); a config without them is returned as is.
+
+    Raises
+    ------
+    ConfigError
+        Naming ``materials.<name>.temperatures`` (not a list of temperatures [degC], or a variant name taken).
+    """
+    materials = config.get("materials")
+    if not isinstance(materials, Mapping):
+        return dict(config)
+    try:
+        return {**config, "materials": expand_temperatures(materials)}
+    except ValueError as exc:
+        raise _wrap(exc, "materials") from None
 
 
 def check_config_files(paths: Iterable[str | Path]) -> None:

@@ -1184,6 +1184,12 @@ def greens_dataset(
             "precursor_taps": int(taps) if fold_precursor else 0,
             "precursor_band": PRECURSOR_BAND * settings.sample_rate if fold_precursor else 0.0,
             "creep_fit_error": creep.fit_error,
+            # a DMA table run at a study temperature (tyreroad.material): E(f; T) = b_T E_ref(f a_T)
+            **({} if getattr(material, "temperature", None) is None else {
+                "temperature": float(material.temperature),
+                "shift_factor": float(material.shift_factor),
+                "vertical_shift_factor": float(material.vertical_shift_factor),
+            }),
         },
     )
     return ds

@@ -24,6 +24,18 @@ Models (config key ``model``)
     fitted model is a causal extrapolation (constant E' and vanishing eta far outside). With fixed
     relaxation times the error of representing one Debye peak falls like the squared grid spacing
     (about 5e-4 relative at 10 per decade), which is far below the scatter of measured DMA data.
+    The points may come from ``table_file`` (CSV, :func:`read_dma_table`; read when the preset is built,
+    so at planning time, and inlined into the resolved preset).
+    Temperature (issue 25): with ``reference_temperature`` T_ref [degC] (the master curve's) and ``shift``
+    (:func:`shift_factor`: WLF ``{model: wlf, C1, C2}`` or ``{model: arrhenius, activation_energy}``) the
+    preset runs at ``temperature`` T [degC] (default T_ref) as E(f; T) = b_T E_ref(f a_T): the fit's
+    relaxation times are multiplied by a_T, so the shifted material is the same causal series. The vertical
+    factor b_T = (T + 273.15) / (T_ref + 273.15) applies only with ``vertical_shift: true`` (default false:
+    master curves are usually built and their shift factors fitted with the horizontal shift alone, applying
+    b_T to such a curve counts the temperature twice, and b_T, the entropy elasticity of the rubbery state,
+    is wrong in the glassy region); it scales a numeric ``quasi_static_modulus`` too. ``temperatures: [T,
+    ...]`` expands (:func:`expand_temperatures`) into the variants ``<name>-T<T:g>: {base: <name>,
+    temperature: T}``; a variant's own ``temperature`` wins over its base's.
 
 Variants
 --------
@@ -93,6 +105,11 @@ __all__ = [
     "pwave_modulus",
     "plane_strain_modulus",
     "fit_generalized_maxwell",
+    "shift_factor",
+    "read_dma_table",
+    "temperature_variant_name",
+    "expand_temperatures",
+    "GAS_CONSTANT",
 ]
 
 MODELS = ("fractional_kelvin_voigt", "generalized_maxwell", "table")
@@ -101,10 +118,19 @@ _MODEL_KEYS = {
     "generalized_maxwell": ("E_inf", "moduli", "relaxation_times"),
     "table": ("frequency", "storage_modulus", "loss_factor"),
 }
-_OPTIONAL_MODEL_KEYS = {"table": ("fit_tolerance",)}
+_OPTIONAL_MODEL_KEYS = {
+    "table": ("fit_tolerance", "table_file", "reference_temperature", "shift", "temperature", "temperatures",
+              "vertical_shift"),
+}
+#: A table preset gives its points either inline (these keys) or in ``table_file`` (a CSV file).
+_TABLE_DATA_KEYS = ("frequency", "storage_modulus", "loss_factor")
+#: Gas constant [J/(mol K)] (CODATA 2018, exact) and 0 degC [K].
+GAS_CONSTANT = 8.314462618
+ZERO_CELSIUS = 273.15
+SHIFT_MODELS = ("wlf", "arrhenius")
 _COMMON_KEYS = ("model", "poisson_ratio", "density", "thickness", "quasi_static_modulus")
 _SCALE_KEYS = ("loss_scale", "density_scale", "loss_anchor", "modulus_scale")
-_VARIANT_KEYS = ("base",) + _SCALE_KEYS + ("quasi_static_modulus",)
+_VARIANT_KEYS = ("base",) + _SCALE_KEYS + ("quasi_static_modulus", "temperature")
 _TABLE_TERMS_PER_DECADE = 10
 _TABLE_DEFAULT_FIT_TOLERANCE = 0.02
 _PATH_SAFE = re.compile(r"[A-Za-z0-9][A-Za-z0-9.-]*")
@@ -279,6 +305,12 @@ class Material:
         The resolved preset (no ``base``; scales folded in) for provenance. Not part of equality.
     modulus_scale : float
         k [-]: E -> k E at every frequency (loss factor unchanged).
+    temperature : float or None
+        Study temperature [degC] of a ``table`` preset with a ``reference_temperature`` (None otherwise).
+    shift_factor : float
+        Horizontal shift factor a_T [-] already applied to ``model`` (1 at the reference temperature).
+    vertical_shift_factor : float
+        b_T [-] already applied to ``model`` (1 unless ``vertical_shift: true``).
     lineage : tuple of str
         Preset names from this one down to its root preset (provenance; not part of equality).
     """
@@ -292,6 +324,9 @@ class Material:
     quasi_static: Any = "zero_frequency"
     loss_anchor: float | None = None
     modulus_scale: float = 1.0
+    temperature: float | None = None
+    shift_factor: float = 1.0
+    vertical_shift_factor: float = 1.0
     config: dict = field(default_factory=dict, compare=False, hash=False, repr=False)
     lineage: tuple = field(default=(), compare=False)
 
@@ -469,6 +504,196 @@ def fit_generalized_maxwell(frequency, storage_modulus, loss_factor, terms_per_d
 
 
 # ----------------------------------------------------------------------------------------------------
+# time-temperature superposition
+
+
+def shift_factor(shift: Mapping[str, Any], temperature: float, reference_temperature: float) -> float:
+    """Horizontal time-temperature shift factor a_T [-] of a master curve.
+
+    The modulus at temperature T is E(f; T) = E_ref(f a_T): a_T > 1 below the reference temperature
+    (the compound is stiffer and more lossy, as at a higher frequency), a_T = 1 at T = T_ref.
+
+    Parameters
+    ----------
+    shift : Mapping
+        ``{model: wlf, C1: [-], C2: [K]}``: log10 a_T = -C1 (T - T_ref) / (C2 + T - T_ref) (Williams, Landel &
+        Ferry 1955), valid while C2 + T - T_ref > 0; or ``{model: arrhenius, activation_energy: [J/mol]}``:
+        log10 a_T = E_a / (R ln 10) (1 / T - 1 / T_ref), temperatures in K.
+    temperature : float
+        Study temperature T [degC].
+    reference_temperature : float
+        Reference temperature T_ref of the master curve [degC].
+
+    Returns
+    -------
+    float
+        a_T [-], > 0.
+
+    Raises
+    ------
+    ValueError
+        Unknown shift model, or a WLF shift at C2 + T - T_ref <= 0 (the form is singular there).
+
+    References
+    ----------
+    Williams, Landel & Ferry (1955), J. Am. Chem. Soc. 77, 3701. doi:10.1021/ja01619a008
+    """
+    t, t_ref = float(temperature), float(reference_temperature)
+    model = shift.get("model")
+    if model == "wlf":
+        c1, c2 = float(shift["C1"]), float(shift["C2"])
+        if c2 + t - t_ref <= 0:
+            raise ValueError(f"WLF shift singular: C2 + T - T_ref = {c2:g} + {t:g} - {t_ref:g} = "
+                             f"{c2 + t - t_ref:g} <= 0")
+        return 10.0 ** (-c1 * (t - t_ref) / (c2 + t - t_ref))
+    if model == "arrhenius":
+        e_a = float(shift["activation_energy"])
+        return math.exp(e_a / GAS_CONSTANT * (1.0 / (t + ZERO_CELSIUS) - 1.0 / (t_ref + ZERO_CELSIUS)))
+    raise ValueError(f"unknown shift model {model!r}; expected one of {list(SHIFT_MODELS)}")
+
+
+def _check_shift(name, shift, reference_temperature, temperatures) -> None:
+    """Validate a table preset's ``shift`` block against each temperature it will be run at."""
+    where = _key(name, "shift")
+    if not isinstance(shift, Mapping):
+        raise ValueError(f"{where} = {shift!r}: expected a mapping {{model: wlf, C1, C2}} or "
+                         "{model: arrhenius, activation_energy}")
+    model = shift.get("model")
+    keys = {"wlf": ("C1", "C2"), "arrhenius": ("activation_energy",)}
+    if model not in keys:
+        raise ValueError(f"{where}.model = {model!r}: expected one of {list(SHIFT_MODELS)}")
+    extra = sorted(set(shift) - {"model", *keys[model]})
+    if extra:
+        raise ValueError(f"{where}.{extra[0]}: unknown key for shift model {model!r}; expected {list(keys[model])}")
+    for key in keys[model]:
+        if key not in shift:
+            raise ValueError(f"{where}.{key}: missing (required by shift model {model!r})")
+    if model == "wlf":
+        _number(name, "shift.C1", shift["C1"], low=0.0, expected="> 0 [-]")
+        c2 = _number(name, "shift.C2", shift["C2"], low=0.0, expected="> 0 [K]")
+        for key, t in temperatures:
+            if c2 + t - reference_temperature <= 0:
+                raise ValueError(
+                    f"{key} = {t:g} degC: the WLF shift is singular there: {where}.C2 + T - "
+                    f"{_key(name, 'reference_temperature')} = {c2:g} + {t:g} - {reference_temperature:g} = "
+                    f"{c2 + t - reference_temperature:g} <= 0; expected T > {reference_temperature - c2:g} degC "
+                    "(WLF holds from about T_g to T_g + 100 K)"
+                )
+    else:
+        _number(name, "shift.activation_energy", shift["activation_energy"], low=0.0, expected="> 0 [J/mol]")
+
+
+def temperature_variant_name(name: str, temperature: float) -> str:
+    """Name of the variant of preset ``name`` at ``temperature`` [degC]: ``<name>-T<temperature:g>``.
+
+    E.g. ``example-dma-T0``, ``example-dma-T40``, ``example-dma-T-10``, ``example-dma-T23.5`` (path safe:
+    no '@' or '_', which file names and wildcards cannot carry).
+    """
+    return f"{name}-T{float(temperature):g}"
+
+
+def expand_temperatures(materials: Mapping[str, Any]) -> dict[str, Any]:
+    """The ``materials`` section with each table preset's ``temperatures: [T, ...]`` expanded into variants.
+
+    Every T [degC] becomes the preset ``<name>-T<T:g>: {base: <name>, temperature: T}``
+    (:func:`temperature_variant_name`): an ordinary ``base:`` variant, so that each temperature is its own
+    material in every stage (greens, springs, contact, K*). A preset of that name already in the section
+    must be exactly that variant.
+
+    Parameters
+    ----------
+    materials : Mapping
+        The ``materials:`` config section.
+
+    Returns
+    -------
+    dict
+        A new section (the input is not changed) with the variants added.
+
+    Raises
+    ------
+    ValueError
+        ``temperatures`` not a list of numbers, or a derived name taken by another preset.
+    """
+    out = dict(materials)
+    for name, preset in materials.items():
+        if not isinstance(preset, Mapping) or "temperatures" not in preset:
+            continue
+        temps = _number_list(name, "temperatures", preset["temperatures"], low=-ZERO_CELSIUS, low_open=True,
+                             expected="> -273.15 [degC]", min_len=1)
+        for t in temps:
+            variant = temperature_variant_name(name, t)
+            want = {"base": name, "temperature": t}
+            have = out.get(variant)
+            if have is not None and (dict(have).keys() != want.keys() or have.get("base") != name
+                                     or float(have.get("temperature", math.nan)) != t):
+                raise ValueError(
+                    f"{_key(name, 'temperatures')}: the variant at {t:g} degC is named {variant!r}, but "
+                    f"materials.{variant} is another preset ({dict(have)!r}); rename that preset"
+                )
+            out[variant] = want
+    return out
+
+
+def read_dma_table(path) -> tuple[tuple, tuple, tuple]:
+    """Read a DMA master curve from a CSV file: frequency [Hz], E' [Pa] and the loss factor eta [-].
+
+    Lines starting with '#' are comments. The first other line is the header naming the columns
+    ``frequency``, ``storage_modulus`` and either ``loss_factor`` (eta = E''/E') or ``loss_modulus``
+    (E'' [Pa]); other columns are ignored.
+
+    Parameters
+    ----------
+    path : path-like
+        The CSV file (relative to the working directory).
+
+    Returns
+    -------
+    frequency, storage_modulus, loss_factor : tuple of float
+        As the table preset keys of the same names (units Hz, Pa, -).
+
+    Raises
+    ------
+    FileNotFoundError
+        The file does not exist.
+    ValueError
+        Missing column, a value that is not a number, or no data row; naming the file and line.
+    """
+    import csv
+    from pathlib import Path
+
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"{path}: DMA table file not found (relative to the working directory {Path.cwd()})")
+    rows = [(i + 1, line) for i, line in enumerate(path.read_text().splitlines())
+            if line.strip() and not line.lstrip().startswith("#")]
+    if not rows:
+        raise ValueError(f"{path}: no header line (expected columns frequency, storage_modulus, loss_factor)")
+    header = [c.strip() for c in next(csv.reader([rows[0][1]]))]
+    loss_col = "loss_factor" if "loss_factor" in header else "loss_modulus"
+    for col in ("frequency", "storage_modulus", loss_col):
+        if col not in header:
+            raise ValueError(f"{path}, line {rows[0][0]}: no column {col!r} in the header {header!r} (expected "
+                             "frequency [Hz], storage_modulus [Pa] and loss_factor [-] or loss_modulus [Pa])")
+    idx = [header.index(c) for c in ("frequency", "storage_modulus", loss_col)]
+    cols: list[list[float]] = [[], [], []]
+    for lineno, line in rows[1:]:
+        cells = next(csv.reader([line]))
+        try:
+            values = [float(cells[j]) for j in idx]
+        except (ValueError, IndexError):
+            raise ValueError(f"{path}, line {lineno}: expected numbers in columns frequency, storage_modulus, "
+                             f"{loss_col}; got {line.strip()!r}") from None
+        for col, v in zip(cols, values):
+            col.append(v)
+    if not cols[0]:
+        raise ValueError(f"{path}: no data rows")
+    f, e1, loss = cols
+    eta = [l / e for l, e in zip(loss, e1)] if loss_col == "loss_modulus" else loss
+    return tuple(f), tuple(e1), tuple(eta)
+
+
+# ----------------------------------------------------------------------------------------------------
 # config
 
 
@@ -603,6 +828,73 @@ def _check_phase_scaling(name, model, loss_scale: float) -> None:
         )
 
 
+def _read_table_file(name, root):
+    """The root table preset with its ``table_file``'s columns inlined (the resolved preset carries the data)."""
+    both = [k for k in _TABLE_DATA_KEYS if k in root]
+    if both:
+        raise ValueError(f"{_key(name, both[0])}: given beside {_key(name, 'table_file')}; give the table either "
+                         "inline (frequency, storage_modulus, loss_factor) or in the file, not both")
+    path = root["table_file"]
+    if not isinstance(path, str) or not path:
+        raise ValueError(f"{_key(name, 'table_file')} = {path!r}: expected the path of a CSV file")
+    try:
+        f, e1, eta = read_dma_table(path)
+    except FileNotFoundError as err:
+        raise ValueError(f"{_key(name, 'table_file')} = {path!r}: {err}") from None
+    except ValueError as err:
+        raise ValueError(f"{_key(name, 'table_file')} = {path!r}: {err}") from None
+    out = {k: v for k, v in root.items() if k != "table_file"}
+    out.update(frequency=list(f), storage_modulus=list(e1), loss_factor=list(eta))
+    return out
+
+
+def _table_temperature(root_name, root, lineage, section) -> tuple[float | None, float, float]:
+    """(T [degC] or None, a_T, b_T) of a table preset: the nearest ``temperature`` in the base chain wins."""
+    t_owner, temperature = root_name, None
+    for preset in lineage[:-1]:
+        if "temperature" in section[preset]:
+            t_owner, temperature = preset, section[preset]["temperature"]
+            break
+    else:
+        temperature = root.get("temperature")
+    t_key = _key(t_owner, "temperature") if temperature is not None else None
+    has_shift, has_ref = "shift" in root, "reference_temperature" in root
+    if (temperature is not None or "temperatures" in root) and not has_shift:
+        key = t_key or _key(root_name, "temperatures")
+        raise ValueError(f"{key}: a study temperature needs {_key(root_name, 'shift')} (the master curve's "
+                         "time-temperature shift: {model: wlf, C1, C2} or {model: arrhenius, activation_energy}) "
+                         f"and {_key(root_name, 'reference_temperature')} [degC]")
+    if has_shift and not has_ref:
+        raise ValueError(f"{_key(root_name, 'shift')}: needs {_key(root_name, 'reference_temperature')} [degC], "
+                         "the temperature of the master curve")
+    vertical = root.get("vertical_shift", False)
+    if not isinstance(vertical, bool):
+        raise ValueError(f"{_key(root_name, 'vertical_shift')} = {vertical!r}: expected true or false")
+    if vertical and not has_shift:
+        raise ValueError(f"{_key(root_name, 'vertical_shift')}: needs {_key(root_name, 'shift')} and "
+                         f"{_key(root_name, 'reference_temperature')}")
+    if not has_ref:
+        return None, 1.0, 1.0
+    t_ref = _number(root_name, "reference_temperature", root["reference_temperature"], low=-ZERO_CELSIUS,
+                    expected="> -273.15 [degC]")
+    temps = []
+    if temperature is not None:
+        temperature = _number(t_owner, "temperature", temperature, low=-ZERO_CELSIUS,
+                              expected="> -273.15 [degC]")
+        temps.append((t_key, temperature))
+    if "temperatures" in root:
+        values = _number_list(root_name, "temperatures", root["temperatures"], low=-ZERO_CELSIUS, low_open=True,
+                              expected="> -273.15 [degC]", min_len=1)
+        temps += [(f"{_key(root_name, 'temperatures')}[{i}]", t) for i, t in enumerate(values)]
+    if has_shift:
+        _check_shift(root_name, root["shift"], t_ref, temps)
+    if temperature is None:
+        return t_ref, 1.0, 1.0
+    a_t = shift_factor(root["shift"], temperature, t_ref)
+    b_t = (temperature + ZERO_CELSIUS) / (t_ref + ZERO_CELSIUS) if vertical else 1.0
+    return temperature, a_t, b_t
+
+
 def material_from_config(name, materials_section) -> Material:
     """Build a validated :class:`Material` from the ``materials`` config section.
 
@@ -646,6 +938,14 @@ def material_from_config(name, materials_section) -> Material:
         raise ValueError(
             f"{_key(root_name, unknown[0])}: unknown key for model {model!r}; expected keys {sorted(allowed)}"
         )
+    if model != "table":
+        for preset in lineage[:-1]:
+            if "temperature" in materials_section[preset]:
+                raise ValueError(f"{_key(preset, 'temperature')}: only a variant of a 'table' preset (a DMA master "
+                                 f"curve with reference_temperature and shift) has a temperature; its root "
+                                 f"materials.{root_name} is model {model!r}")
+    if model == "table" and "table_file" in root:
+        root = _read_table_file(root_name, root)
     for key in _COMMON_KEYS[1:4] + _MODEL_KEYS[model]:
         if key not in root:
             raise ValueError(f"{_key(root_name, key)}: missing (required by model {model!r})")
@@ -662,6 +962,17 @@ def material_from_config(name, materials_section) -> Material:
             qs_owner, "quasi_static_modulus", qs, low=0.0, expected="'zero_frequency' or a modulus > 0 [Pa]"
         )
     built = _build_model(root_name, root)
+    temperature, a_t, b_t = None, 1.0, 1.0
+    if model == "table":
+        temperature, a_t, b_t = _table_temperature(root_name, root, lineage, materials_section)
+        if a_t != 1.0 or b_t != 1.0:  # E(w; T) = b_T E_ref(w a_T): every relaxation time times a_T
+            built = GeneralizedMaxwell(
+                E_inf=built.E_inf * b_t,
+                moduli=tuple(b_t * e for e in built.moduli),
+                relaxation_times=tuple(a_t * tau for tau in built.relaxation_times),
+            )
+        if qs != "zero_frequency":
+            qs = qs * b_t  # the measured relaxed modulus is the reference temperature's
 
     resolved = copy.deepcopy(dict(root))
     resolved.pop("density_scale", None)
@@ -673,7 +984,10 @@ def material_from_config(name, materials_section) -> Material:
         resolved.pop("modulus_scale", None)
     if loss_anchor is not None:
         resolved["loss_anchor"] = loss_anchor
-    resolved["quasi_static_modulus"] = qs
+    resolved["quasi_static_modulus"] = qs if qs == "zero_frequency" else qs / b_t
+    resolved.pop("temperatures", None)  # expanded into variants (expand_temperatures); each is its own preset
+    if temperature is not None and "reference_temperature" in resolved:
+        resolved["temperature"] = temperature
     material = Material(
         name=name,
         poisson=nu,
@@ -684,20 +998,24 @@ def material_from_config(name, materials_section) -> Material:
         quasi_static=qs,
         loss_anchor=loss_anchor,
         modulus_scale=modulus_scale,
+        temperature=temperature,
+        shift_factor=a_t,
+        vertical_shift_factor=b_t,
         config=resolved,
         lineage=lineage,
     )
     if loss_anchor is not None and loss_scale > 1.0:
         _check_phase_scaling(name, built, loss_scale)
     if model == "table" and qs == "zero_frequency":
-        f_low = float(root["frequency"][0])
+        f_low = float(root["frequency"][0]) / a_t  # the table's lowest frequency, shifted to the study temperature
         e_low = float(np.real(material.modulus(2.0 * np.pi * f_low)))
+        at = "" if temperature is None else f" at {temperature:g} degC (shift factor a_T = {a_t:.4g})"
         logger.warning(
-            "materials.%s: the relaxed modulus E(0) = %.4g Pa is an extrapolation of the table's causal fit below "
+            "materials.%s: the relaxed modulus E(0) = %.4g Pa%s is an extrapolation of the table's causal fit below "
             "its lowest frequency %.4g Hz (E'(%.4g Hz) = %.4g Pa, %.1f %% above it); it sets the quasi-static kernel, "
             "the creep tail's end and, with springs.modulus: quasi_static, the contact springs. Give "
             "materials.%s.quasi_static_modulus [Pa] to set it from data.",
-            root_name, material.quasi_static_modulus, f_low, f_low, e_low,
+            name, material.quasi_static_modulus, at, f_low, f_low, e_low,
             100.0 * (e_low / material.quasi_static_modulus - 1.0), root_name,
         )
     logger.debug("material %s resolved via %s: %s", name, " -> ".join(lineage), resolved)

@@ -12,6 +12,7 @@ from tyreroad.config import (
     check_config,
     check_config_files,
     check_job,
+    expand_material_temperatures,
     rolling_materials,
     sensitivity_points,
     validate_schema,
@@ -24,6 +25,8 @@ from tyreroad.provenance import STAGE_MODULES, source_hash
 SCHEMA = Path(workflow.current_basedir) / "../schemas/config.schema.yaml"
 check_config_files(workflow.configfiles)  # duplicate keys are errors (YAML keeps the last silently)
 validate_schema(config, SCHEMA)
+# a table preset's `temperatures: [T, ...]` become the base: variants <name>-T<T> (tyreroad.config)
+config["materials"] = expand_material_temperatures(config)["materials"]
 validate(config, "../schemas/config.schema.yaml")  # inserts the schema's defaults
 check_config(config)
 
