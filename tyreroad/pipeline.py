@@ -348,7 +348,8 @@ def run_study_figures(
     from .study import open_study
 
     plot_study_figures(
-        open_study(study_nc), variants, [str(p) for p in outputs], reference_material=study_cfg["reference_material"]
+        open_study(study_nc), variants, [str(p) for p in outputs], reference_material=study_cfg["reference_material"],
+        source=study_nc,
     )
 
 

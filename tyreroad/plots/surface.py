@@ -17,8 +17,26 @@ logger = logging.getLogger(__name__)
 __all__ = ["plot_patch"]
 
 
-def plot_patch(ds: xr.Dataset, path: str | Path, depth: float = 0.15e-3) -> Path:
+def _outline():
+    import matplotlib.patheffects as pe
+
+    return pe.withStroke(linewidth=2.2, foreground="0.3")
+
+
+#: Colour range of the height map below the highest sample [m]: the contact happens in the top
+#: tenths of a millimetre, so a scale over the whole patch depth (1.4 mm on ISO 10844) paints
+#: every stone top the same colour.
+COLOUR_RANGE = 0.3e-3
+
+
+def plot_patch(ds: xr.Dataset, path: str | Path, depth: float = 0.15e-3,
+               colour_range: float = COLOUR_RANGE) -> Path:
     """Plot the contact patch: heights (mm colour map), 1 mm element grid and matching points.
+
+    The colour scale spans only the top ``colour_range`` below the highest sample (lower ground
+    is drawn in the scale's darkest colour, marked by the colourbar's arrow), and a white contour
+    marks the height ``depth`` below the highest matching point, so the stone tops that carry the
+    load are told apart.
 
     Matching points (each element's highest sample) within ``depth`` of the patch's highest peak
     are drawn filled, the others hollow, so the figure also shows which elements are in contact
@@ -31,7 +49,9 @@ def plot_patch(ds: xr.Dataset, path: str | Path, depth: float = 0.15e-3) -> Path
     path : path-like
         Output PNG file; parent directories are created.
     depth : float
-        Depth below the top used to mark matching points [m].
+        Depth below the top used to mark matching points and draw the contour [m].
+    colour_range : float
+        Height range of the colour scale below the highest sample [m].
 
     Returns
     -------
@@ -54,9 +74,17 @@ def plot_patch(ds: xr.Dataset, path: str | Path, depth: float = 0.15e-3) -> Path
     # Edges of the cell-centred samples.
     xe = np.concatenate([x_mm - 0.5 * step_mm, [x_mm[-1] + 0.5 * step_mm]])
     ye = np.concatenate([y_mm - 0.5 * step_mm, [y_mm[-1] + 0.5 * step_mm]])
-    mesh = ax.pcolormesh(xe, ye, h_mm.T, cmap="cividis", shading="flat", rasterized=True)
-    cbar = fig.colorbar(mesh, ax=ax)
-    cbar.set_label("road height z [mm]")
+    h_top = float(np.nanmax(h_mm))
+    span_mm = colour_range * 1e3
+    mesh = ax.pcolormesh(xe, ye, h_mm.T, cmap="cividis", shading="flat", rasterized=True,
+                         vmin=h_top - span_mm, vmax=h_top)
+    cbar = fig.colorbar(mesh, ax=ax, extend="min")
+    cbar.set_label(f"road height z [mm]: scale clipped to the top {span_mm:g} mm\n"
+                   f"(the patch spans {h_top - float(np.nanmin(h_mm)):.2f} mm; lower ground: darkest colour)")
+    level = (top - depth) * 1e3
+    ax.contour(x_mm, y_mm, h_mm.T, levels=[level], colors="white", linewidths=0.9,
+               linestyles="solid")
+    cbar.ax.axhline(level, color="white", lw=1.5)
     for i in range(ex + 1):
         ax.axvline(i * c_mm, color="0.15", lw=0.35, alpha=0.5)
     for j in range(ey + 1):
@@ -67,6 +95,8 @@ def plot_patch(ds: xr.Dataset, path: str | Path, depth: float = 0.15e-3) -> Path
                label=f"matching point within {depth * 1e3:g} mm of the top ({near.mean():.0%})")
     ax.scatter(px[~near], py[~near], s=14, facecolors="none", edgecolors="red", linewidths=0.8,
                label="other matching points")
+    ax.plot([], [], color="white", lw=0.9, path_effects=[_outline()],
+            label=f"contour {depth * 1e3:g} mm below the highest matching point")
     ax.set_xlim(xe[0], xe[-1])
     ax.set_ylim(ye[0], ye[-1])
     ax.set_aspect("equal")
@@ -74,7 +104,7 @@ def plot_patch(ds: xr.Dataset, path: str | Path, depth: float = 0.15e-3) -> Path
     ax.set_ylabel("y [mm]")
     name = ds.attrs.get("surface", "")
     ax.set_title(f"Road patch {name}: {ex} x {ey} elements of {c_mm:g} mm")
-    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.09), ncol=1, fontsize=8, frameon=False)
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.09), ncol=1, fontsize=9, frameon=False)
     fig.savefig(path, dpi=150)
     plt.close(fig)
     logger.info("wrote %s", path)
