@@ -109,3 +109,30 @@ def test_variant_figure_has_a_difference_panel(captured, tmp_path):
     np.testing.assert_allclose(diffs["-"], -0.01 * k_ref * 1e-3, rtol=1e-9, atol=1e-9)
     labels = [t.get_text() for t in ax.get_legend().get_texts()]
     assert labels[1].startswith("ρ ×1 (ref), K_sat") and "see K − K_ref below" in ax.get_legend().get_title().get_text()
+
+
+def test_fig6_lower_panel_has_a_legend_and_figures_name_their_study(captured, tmp_path):
+    mats = ["ref", "light"]
+    st = StudySettings.from_config({"surface": "synth", "reference_material": "ref", "materials": mats,
+                                    "accelerations": [50, 500]}, d_max=2.5e-4)
+    runs = [_synthetic.synthetic_run(m, mode, a, lambda d: 2e6 * (0.5 * d**2 / 1e-4 + 0.2 * d))
+            for m, mode, a in expected_cases(st)]
+    ds = aggregate(runs, st)
+    caption = plots_study.study_caption(ds, "my-results/study.nc")
+    assert caption == "study my-results/study.nc, surface synth, ref, light (reference ref)"
+    plots_study.plot_stiffness(ds, tmp_path / "f6.png", "ref", caption)
+    fig = captured[-1]
+    ax, ax2 = fig.axes
+    assert [t.get_text() for t in ax2.get_legend().get_texts()] == [
+        "quasi-static", "dynamic, a = 50 m/s²", "dynamic, a = 500 m/s²"]
+    assert fig._suptitle.get_text() == caption and "surface synth" in ax.get_title()
+
+
+def test_fig10_work_is_printed_at_one_precision_and_round_off_reads_zero():
+    from tyreroad.plots.hysteresis import _decimals, work_label
+
+    decimals = _decimals([0.0205, 0.0350])  # 0.1 % of 35 mJ = 0.035 mJ: two decimals
+    assert decimals == 2
+    assert work_label(-6.3e-19, 0.02048, decimals) == "W = 0 (|W| < 1e-6 of 20.48 mJ input)"
+    assert work_label(0.013037, 0.035030, decimals) == "W = 13.04 mJ, 37.2% of 35.03 mJ input"
+    assert work_label(3e-8, 0.02048, decimals).startswith("W = 0.00 mJ")  # above round-off: printed, not hidden
