@@ -52,15 +52,22 @@ def greens_like(name, e_scale=1.0, eta_scale=1.0, g_static=3.1e-5, e_qs=25e6):
 
 
 def test_fig2_draws_identical_material_curves_once_and_says_so(captured, tmp_path):
-    datasets = [greens_like("ref"), greens_like("ref-soft", eta_scale=1.5), greens_like("ref-heavy")]
+    datasets = [greens_like("ref"), greens_like("ref-soft", eta_scale=1.5), greens_like("ref-heavy"),
+                greens_like("added", e_scale=1.1)]
     plots_greens.plot_materials(datasets, tmp_path / "fig2.png")
     fig = captured[-1]
-    ax_e, ax_eta = fig.axes
-    labels = [t.get_text() for t in ax_eta.get_legend().get_texts()]
-    assert labels == ["ref = ref-heavy (same curve)", "ref-soft"]
-    assert len(ax_eta.get_lines()) == 2 and len(ax_e.get_lines()) == 4  # E' and E'' per distinct curve
-    e_labels = [t.get_text() for t in ax_e.get_legend().get_texts()]
-    assert e_labels[:2] == ["E' (storage)", "E'' (loss)"]
+    ax_e1, ax_e2, ax_eta = fig.axes
+    labels = [t.get_text() for t in fig.legends[0].get_texts()]
+    assert labels == ["ref = ref-heavy (same curve)", "ref-soft", "added"]
+    assert all(ax.get_legend() is None for ax in fig.axes)  # the legend sits outside, below the panels
+    for ax in (ax_e1, ax_e2, ax_eta):  # one line per distinct curve, each with its own colour and style
+        lines = ax.get_lines()
+        assert len(lines) == 3
+        assert len({(ln.get_color(), ln.get_linestyle()) for ln in lines}) == 3
+        assert len({ln.get_linestyle() for ln in lines}) == 3
+    np.testing.assert_allclose(ax_e2.get_lines()[1].get_ydata(),
+                               (40e6 + 3e3 * datasets[1]["frequency"].values[1:]) * 1.5
+                               * (0.15 + 0.15 * datasets[1]["frequency"].values[1:] / 25600) / 1e6)
 
 
 def test_fig3_quasistatic_line_matches_its_legend_and_the_gap_is_explained(captured, tmp_path):
@@ -75,6 +82,9 @@ def test_fig3_quasistatic_line_matches_its_legend_and_the_gap_is_explained(captu
         handle = by_label[ln.get_label()]
         assert handle.get_color() == ln.get_color() and handle.get_linestyle() == ln.get_linestyle()
     assert all(ln.get_marker() in ("None", None, "") for ln in ax.get_lines())  # no unexplained markers
+    fig = captured[-1]
+    fig.canvas.draw()  # the legend covers no curve: it lies right of the axes
+    assert legend.get_window_extent().x0 >= ax.get_window_extent().x1
     note = " ".join(t.get_text() for t in ax.texts)
     ratio = (3.1e-5 * 25e6 / math.hypot(40e6 + 3e3 * 100, (40e6 + 3e3 * 100) * (0.15 + 0.15 * 100 / 25600))) / 3.1e-5
     assert f"at 100 Hz |g| = {ratio:.2f} × quasi-static g" in note
