@@ -303,6 +303,9 @@ def test_aggregate_and_report_section():
 
     for ds in (agg, *runs):
         check_metadata(ds)  # units and long_name on every variable (write_dataset's contract)
+    # a level in dB is dimensionless for CF (UDUNITS-2 has no dB): its reference is stated apart
+    assert agg["band_level"].attrs["units"] == "1" and agg["band_level"].attrs["reference_value"] == 1.0
+    assert agg["band_level"].attrs["reference_value_units"] == "N"
     assert agg.sizes["case"] == 2 and agg.sizes["band"] == 18
     np.testing.assert_array_equal(agg["force_curve"].values[0], agg["force_curve"].values[1])
     # a quasi-static pass on a flat road does no net work (SPEC 12): W is only the trapezoid rule's residue
