@@ -25,6 +25,7 @@ from .sections import (
     claim6_section,
     decides_section,
     equivalent_section,
+    figures_section,
     greens_by_material,
     header_section,
     hysteresis_section,
@@ -56,6 +57,7 @@ REPORT_SECTIONS: tuple[Section, ...] = (
     surface_section,
     material_section,
     hysteresis_section,
+    figures_section,
     config_section,
 )
 
@@ -82,6 +84,7 @@ def build_report(
     thresholds: Mapping[str, float] | None = None,
     constructions: Mapping[str, tuple] | None = None,
     claim6: xr.Dataset | None = None,
+    figures: Sequence[str] = (),
 ) -> str:
     """The markdown text of ``results/report.md``.
 
@@ -115,6 +118,9 @@ def build_report(
     claim6 : xarray.Dataset, optional
         ``results/claim6.nc`` (:mod:`tyreroad.claim6`): the claim-6 table by loss-variant definition;
         None omits it.
+    figures : sequence of str, optional
+        Figure files as paths relative to the report's folder (``figures/fig5_force.png``): the
+        section that shows each with its caption; empty omits it.
 
     Returns
     -------
@@ -150,6 +156,7 @@ def build_report(
             ClaimContext(study_ds, settings, variants, thresholds)))
             for name, (study_ds, g) in (constructions or {}).items()},
         claim6=claim6,
+        figures=tuple(figures),
     )
     return _assemble(REPORT_SECTIONS, ctx)
 
