@@ -328,6 +328,11 @@ def test_aggregate_and_report_section():
     text = "\n".join(rolling_section(ReportContext(rolling=agg)))
     assert "| tread | quasistatic | 5 |" in text and "| tread | quasistatic | 20 |" in text
     assert "differs by at most 0.0e+00 of its peak" in text
+    from tyreroad.report import build_rolling_report
+
+    md = build_rolling_report(agg, figures=["figures/fig11_rolling_force.png", "figures/fig14_contact_map.png"])
+    assert "![fig14_contact_map](figures/fig14_contact_map.png)" in md
+    assert md.index("## Figures") < md.index("## Config")
 
 
 def test_static_indentation_carries_the_load():

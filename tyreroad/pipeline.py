@@ -633,8 +633,12 @@ def run_rolling_figures(rolling_nc: str | Path, map_ncs: Sequence[str | Path], o
     plot_rolling_figures(io.read_dataset(rolling_nc), [io.read_dataset(p) for p in map_ncs], [str(p) for p in outputs])
 
 
-def run_rolling_report(rolling_nc: str | Path, out_md: str | Path) -> None:
-    """``results/rolling.md``: the report's rolling section (table per material and speed)."""
+def run_rolling_report(rolling_nc: str | Path, out_md: str | Path, figure_pngs: Sequence[str | Path] = ()) -> None:
+    """``results/rolling.md``: the report's rolling section (table per material and speed), and the
+    figures ``figure_pngs`` embedded with their captions, linked relative to the report."""
+    import os
+
     from .report import build_rolling_report, write_report
 
-    write_report(build_rolling_report(io.read_dataset(rolling_nc)), out_md)
+    figures = [Path(os.path.relpath(p, Path(out_md).parent)).as_posix() for p in figure_pngs]
+    write_report(build_rolling_report(io.read_dataset(rolling_nc), figures=figures), out_md)

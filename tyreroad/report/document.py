@@ -62,7 +62,8 @@ REPORT_SECTIONS: tuple[Section, ...] = (
 )
 
 #: The sections of ``results/rolling.md``, in order.
-ROLLING_REPORT_SECTIONS: tuple[Section, ...] = (rolling_header_section, rolling_section, config_section)
+ROLLING_REPORT_SECTIONS: tuple[Section, ...] = (rolling_header_section, rolling_section, figures_section,
+                                                config_section)
 
 
 def _assemble(sections: Sequence[Section], ctx: ReportContext) -> str:
@@ -161,7 +162,8 @@ def build_report(
     return _assemble(REPORT_SECTIONS, ctx)
 
 
-def build_rolling_report(rolling: xr.Dataset, thresholds: Mapping[str, float] | None = None) -> str:
+def build_rolling_report(rolling: xr.Dataset, thresholds: Mapping[str, float] | None = None,
+                         figures: Sequence[str] = ()) -> str:
     """The markdown text of ``results/rolling.md`` from ``results/rolling.nc``.
 
     Parameters
@@ -171,9 +173,11 @@ def build_rolling_report(rolling: xr.Dataset, thresholds: Mapping[str, float] | 
         provenance (the ``config`` attribute is printed as the config section).
     thresholds : mapping, optional
         Overrides of :data:`tyreroad.report.claims.THRESHOLDS`.
+    figures : sequence of str, optional
+        Figures 11-14 as paths relative to the report's folder: shown with their captions.
     """
     ctx = ReportContext(thresholds={**THRESHOLDS, **dict(thresholds or {})},
-                        config_text=str(rolling.attrs.get("config", "")), rolling=rolling)
+                        config_text=str(rolling.attrs.get("config", "")), rolling=rolling, figures=tuple(figures))
     return _assemble(ROLLING_REPORT_SECTIONS, ctx)
 
 

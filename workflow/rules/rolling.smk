@@ -87,6 +87,7 @@ rule rolling_figures:
 rule rolling_report:
     input:
         study=f"{R}/rolling.nc",
+        figures=[f"{R}/figures/{name}.png" for name in ROLLING_FIGURES],  # embedded with their captions
     output:
         md=f"{R}/rolling.md",
     log:
