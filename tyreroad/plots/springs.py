@@ -88,7 +88,8 @@ def plot_springs(ds: xr.Dataset, path: str | Path) -> None:
         full_at.append(zeta_um[int(np.argmax(flat_area[idx] >= flat_area[idx, -1]))])
     plateau, note = _plateau(ds, float(flat_area.max()))
     if plateau is not None:
-        ax1.axhline(plateau * 1e-3, color="0.5", lw=5, alpha=0.35, zorder=0, label=f"plateau {plateau * 1e-3:.1f} kN/m: {note}")
+        ax1.axhline(plateau * 1e-3, color="0.5", lw=5, alpha=0.35, zorder=0,
+                    label=f"plateau {plateau * 1e-3:.1f} kN/m: {note}")
     x_end = min(float(zeta_um[-1]), 1.3 * max(full_at) if max(full_at) > 0 else float(zeta_um[-1]))
     ax1.set_xlim(0, x_end)
     ax1.set_xlabel(r"spring compression $\zeta$ [µm]")

@@ -18,7 +18,8 @@ rule study_figures:
     input:
         study=f"{R}/study.nc",
     output:
-        [report(f"{R}/figures/{name}.png", caption=f"../report/{name}.rst", category="Study") for name in STUDY_FIGURES],
+        [report(f"{R}/figures/{name}.png", caption=f"../report/{name}.rst", category="Study")
+         for name in STUDY_FIGURES],
     log:
         f"{R}/logs/study_figures.log",
     params:
