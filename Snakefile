@@ -3,6 +3,8 @@
 
 configfile: "config/config.yaml"
 
+report: "workflow/report/workflow.rst"  # `snakemake --report results/report.html`: every figure captioned
+
 
 include: "workflow/rules/common.smk"
 include: "workflow/rules/surface.smk"

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import logging
 import math
 import re
 from dataclasses import dataclass
@@ -216,6 +217,17 @@ def test_one_element_linear_spring_static_compliance():
     assert res.force[0] == 0
     np.testing.assert_allclose(res.displacement[:, 0, 0], g * expected, rtol=1e-12, atol=1e-24)
     assert res.time is None and np.all(res.residual <= 1e-12)
+
+
+def test_march_progress_lines_carry_elapsed_and_time_left(caplog):
+    k, f, step = linear_tables(2.0e4)
+    settings = SolverSettings(d_max=2.5e-4, quasistatic_step=1e-5)
+    with caplog.at_level(logging.INFO, logger="tyreroad.contact"):
+        solve_quasistatic([[1e-3]], k, f, step, [[3.0e-5]], settings)
+    lines = [r.getMessage() for r in caplog.records if r.getMessage().startswith("step ")]
+    assert lines[0].startswith("step 0/25:") and lines[-1].startswith("step 25/25:")
+    assert all("; elapsed " in line for line in lines)
+    assert "left" in lines[1] and "left" not in lines[-1]  # an estimate while steps remain, none at the end
 
 
 # --------------------------------------------------------------------------------------------

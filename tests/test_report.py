@@ -420,6 +420,18 @@ def test_report_markdown(tmp_path, passing_study):
     assert p.read_text(encoding="utf-8") == text
 
 
+def test_report_embeds_and_captions_its_figures(passing_study):
+    from tyreroad.report.figures import FIGURE_CAPTIONS
+
+    figures = ["figures/fig6_stiffness.png", "figures/fig2_material.png"]
+    text = build_report(passing_study, surface_dataset(), None, SETTINGS, VARIANTS, figures=figures)
+    part = text[text.index("## Figures"):text.index("## Config")]
+    assert "![fig2_material](figures/fig2_material.png)" in part
+    assert f"*{FIGURE_CAPTIONS['fig6_stiffness']}* (`figures/fig6_stiffness.png`)" in part
+    assert part.index("fig2_material") < part.index("fig6_stiffness")  # in figure order
+    assert "## Figures" not in build_report(passing_study, surface_dataset(), None, SETTINGS, VARIANTS)
+
+
 def test_report_marks_failures(passing_study):
     specs = passing_specs()
     fail_8(specs)

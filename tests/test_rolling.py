@@ -303,6 +303,9 @@ def test_aggregate_and_report_section():
 
     for ds in (agg, *runs):
         check_metadata(ds)  # units and long_name on every variable (write_dataset's contract)
+    # a level in dB is dimensionless for CF (UDUNITS-2 has no dB): its reference is stated apart
+    assert agg["band_level"].attrs["units"] == "1" and agg["band_level"].attrs["reference_value"] == 1.0
+    assert agg["band_level"].attrs["reference_value_units"] == "N"
     assert agg.sizes["case"] == 2 and agg.sizes["band"] == 18
     np.testing.assert_array_equal(agg["force_curve"].values[0], agg["force_curve"].values[1])
     # a quasi-static pass on a flat road does no net work (SPEC 12): W is only the trapezoid rule's residue
@@ -325,6 +328,11 @@ def test_aggregate_and_report_section():
     text = "\n".join(rolling_section(ReportContext(rolling=agg)))
     assert "| tread | quasistatic | 5 |" in text and "| tread | quasistatic | 20 |" in text
     assert "differs by at most 0.0e+00 of its peak" in text
+    from tyreroad.report import build_rolling_report
+
+    md = build_rolling_report(agg, figures=["figures/fig11_rolling_force.png", "figures/fig14_contact_map.png"])
+    assert "![fig14_contact_map](figures/fig14_contact_map.png)" in md
+    assert md.index("## Figures") < md.index("## Config")
 
 
 def test_static_indentation_carries_the_load():

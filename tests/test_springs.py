@@ -367,6 +367,20 @@ def test_plot_springs_writes_png(patch_springs, tmp_path):
     assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and path.stat().st_size > 20_000
 
 
+def test_springs_figure_plateau_is_the_flat_punch_of_the_whole_element_top(patch_springs):
+    from tyreroad.plots.springs import _plateau
+
+    area = patch_springs["area"].values
+    full = float(area.max())
+    k, note = _plateau(patch_springs, full)
+    a = math.sqrt(full / math.pi)
+    assert k == pytest.approx(2 * E_S / (1 - NU**2) * float(punch_factor(a / H, NU)) * a, rel=1e-12)
+    # the table's elements with their whole top in contact sit on that plateau
+    k_full = patch_springs["stiffness"].values[area == full]
+    np.testing.assert_allclose(k_full, k, rtol=1e-9)
+    assert "flat punch" in note
+
+
 # ----------------------------------------------------------------------------------------------
 # float32 tables (springs.table_precision)
 # ----------------------------------------------------------------------------------------------

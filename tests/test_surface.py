@@ -306,6 +306,22 @@ def test_plot_patch_writes_png(default_ds, tmp_path):
     assert np.unique(img.reshape(-1, img.shape[2])[:, :3], axis=0).shape[0] > 100
 
 
+def test_plot_patch_colour_scale_spans_the_top_few_tenths(default_ds, tmp_path, monkeypatch):
+    import matplotlib.figure
+
+    from tyreroad.plots.surface import COLOUR_RANGE, plot_patch
+
+    kept = []
+    monkeypatch.setattr(matplotlib.figure.Figure, "savefig", lambda self, *a, **k: kept.append(self))
+    plot_patch(default_ds, tmp_path / "patch.png")
+    ax, cax = kept[0].axes
+    mesh = ax.collections[0]
+    top = float(default_ds["height"].max()) * 1e3
+    assert mesh.norm.vmax == pytest.approx(top) and mesh.norm.vmin == pytest.approx(top - COLOUR_RANGE * 1e3)
+    assert "clipped to the top 0.3 mm" in cax.get_ylabel()
+    assert any("contour 0.15 mm" in t.get_text() for t in ax.get_legend().get_texts())
+
+
 def test_roller_presses_stone_tops_down_to_its_level():
     """tops = min(N(0, scatter), roller_level): no stone stands above the roller plane."""
     small = dict(field_size=(0.03, 0.03), mortar_rms=0.0, microtexture_rms=0.0, top_scatter=4e-5)

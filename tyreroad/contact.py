@@ -53,6 +53,7 @@ from .history import History
 from .hysteresis import dissipated_energy, loading_work
 from .influence import Tangent
 from .kernel import LayerKernel
+from .log import Progress
 from .loading import IndentationPath, Loading, LoadingPreset, constant_acceleration_path, uniform_indentation_grid
 from .newton import StepConvergenceError, Substrate, solve_step
 from .solver import SolverSettings
@@ -262,6 +263,7 @@ def march(
     zeta = loading.rest_compression()
     b_prev = zeta.copy()
     report_every = max(1, n_steps // 10)
+    progress = Progress(n_steps)  # elapsed and time left on each line; a line at least every minute
     tangent = None
     # springs with a force history (QLV, tyreroad.qlv.MarchSprings) start at rest and commit each step
     start, commit = getattr(springs, "start", None), getattr(springs, "commit", None)
@@ -283,11 +285,12 @@ def march(
         tangent = substrate.tangent(step.stiffness) if recorder.wants_tangent else None
         recorder.store(n, step, w, tangent)
         finished = loading.done(n, step.force)
-        if finished or n % report_every == 0 or n == n_steps - 1:
+        if finished or n % report_every == 0 or n == n_steps - 1 or progress.due():
             logger.info(
-                "step %d/%d: %s, F = %.5e N, %d elements in contact, %d Newton / %d Krylov iterations%s",
+                "step %d/%d: %s, F = %.5e N, %d elements in contact, %d Newton / %d Krylov iterations%s; %s",
                 n, n_steps - 1, loading.describe(n), step.force.sum(), recorder.contact_count[n],
                 step.newton_iterations, step.krylov_iterations, ", path complete" if finished else "",
+                progress.status(n + 1),
             )
         if finished:
             return recorder.result(loading, n + 1)

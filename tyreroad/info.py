@@ -7,6 +7,8 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
+from .io import is_text
+
 __all__ = ["describe"]
 
 
@@ -62,7 +64,7 @@ def describe(path: str | Path) -> str:
             lines.append(f"    {name:28s} [{units}]  {_range(np.asarray(var.values), units)}")
         lines.append("  variables:")
         for name, var in ds.data_vars.items():
-            units = str(var.attrs.get("units", "?"))
+            units = str(var.attrs.get("units", "" if is_text(var) else "?"))  # labels: no units
             dims = ", ".join(var.dims)
             lines.append(f"    {name:28s} [{units}]  ({dims})  {var.attrs.get('long_name', '')}")
     return "\n".join(lines)

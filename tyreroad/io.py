@@ -2,7 +2,9 @@
 
 Every file the pipeline writes goes through :func:`write_dataset`, which
 
-* checks that every data variable and coordinate carries ``units`` and ``long_name``,
+* checks that every data variable and coordinate carries ``units`` and ``long_name`` (text
+  variables, such as material or case labels, only ``long_name``: CF gives labels no units, and
+  the writer drops a ``units`` attribute from them),
 * adds the global provenance attributes required by the specification (tyreroad version,
   the config section that made the file as YAML text and its SHA-256 hash, creation time),
 * compresses the variables, and
@@ -35,6 +37,8 @@ __all__ = [
     "config_hash",
     "provenance_attrs",
     "check_metadata",
+    "is_text",
+    "level_attrs",
     "write_dataset",
     "read_dataset",
     "atomic_path",
@@ -93,14 +97,51 @@ def provenance_attrs(section: Mapping[str, Any] | None, **extra: Any) -> dict[st
     return attrs
 
 
+def is_text(var: xr.DataArray | xr.Variable) -> bool:
+    """True for a variable of strings (labels): CF gives such variables no ``units``."""
+    kind = var.dtype.kind
+    if kind in "US":
+        return True
+    if kind == "O":
+        values = np.asarray(var.values).ravel()
+        return values.size > 0 and all(isinstance(v, (str, bytes)) for v in values)
+    return False
+
+
+def level_attrs(long_name: str, reference: float, reference_units: str) -> dict[str, Any]:
+    """CF-valid attributes of a level in decibels, 10 log10(P / P_ref) or 20 log10(a / a_ref).
+
+    UDUNITS-2 (which CF-1.8 units must parse in) knows no ``dB``, and "dB re 1e-6 m" is no unit:
+    a level is dimensionless, so ``units="1"``; the long name says "dB re <reference>", and the
+    attributes ``level_units="dB"``, ``reference_value`` and ``reference_value_units`` state the
+    reference in a form a program can read.
+
+    Parameters
+    ----------
+    long_name : str
+        What the level is of.
+    reference : float
+        The reference value of the level (e.g. 1e-6 for a texture level re 1 um).
+    reference_units : str
+        UDUNITS units of the reference (e.g. "m").
+    """
+    ref = f"{reference:g}"
+    if "e" in ref:  # 1e-06 -> 1e-6
+        mantissa, exponent = ref.split("e")
+        ref = f"{mantissa}e{int(exponent)}"
+    return {"units": "1", "long_name": f"{long_name} [dB re {ref} {reference_units}]",
+            "level_units": "dB", "reference_value": float(reference), "reference_value_units": reference_units}
+
+
 def check_metadata(ds: xr.Dataset) -> None:
     """Raise ``ValueError`` naming every variable that lacks ``units`` or ``long_name``.
 
-    Dimensionless quantities must say so with ``units="1"``.
+    Dimensionless quantities must say so with ``units="1"``; text (label) variables need only a
+    ``long_name``.
     """
     missing = []
     for name, var in {**ds.data_vars, **ds.coords}.items():
-        for key in ("units", "long_name"):
+        for key in ("long_name",) if is_text(var) else ("units", "long_name"):
             if key not in var.attrs:
                 missing.append(f"{name}.{key}")
     if missing:
@@ -169,6 +210,9 @@ def write_dataset(
     """
     check_metadata(ds)
     ds = ds.copy()
+    for name in [*ds.data_vars, *ds.coords]:
+        if is_text(ds[name].variable) and "units" in ds[name].attrs:  # CF: labels carry no units
+            ds[name].attrs = {k: v for k, v in ds[name].attrs.items() if k != "units"}
     ds.attrs.update(provenance_attrs(config_section, **extra_attrs))
     # complex variables are not representable in classic netCDF: callers store re/im parts.
     for name, var in ds.data_vars.items():

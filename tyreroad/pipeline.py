@@ -348,7 +348,8 @@ def run_study_figures(
     from .study import open_study
 
     plot_study_figures(
-        open_study(study_nc), variants, [str(p) for p in outputs], reference_material=study_cfg["reference_material"]
+        open_study(study_nc), variants, [str(p) for p in outputs], reference_material=study_cfg["reference_material"],
+        source=study_nc,
     )
 
 
@@ -365,6 +366,7 @@ def run_report(
     construction_greens_ncs: Sequence[str | Path] = (),
     spring_comparison: Mapping[str, Any] | None = None,
     claim6_nc: str | Path | None = None,
+    figure_pngs: Sequence[str | Path] = (),
 ) -> None:
     """``results/report.md``: the seed's claims checked against the measured numbers; given the
     stiffness-spectrum files, the section on K*(f; d0); given ``loading_nc`` (results/loading.nc),
@@ -372,7 +374,10 @@ def run_report(
     (``results/constructions/<name>/study.nc`` and their greens files), the study beside them. (The
     rolling section is ``results/rolling.md`` of the named target ``rolling``.) Given
     ``spring_comparison`` (config key, issue 24), the section comparing this study with the
-    elastic-springs study in ``spring_comparison['elastic_results']``."""
+    elastic-springs study in ``spring_comparison['elastic_results']``. The figures ``figure_pngs``
+    are embedded with their captions, linked relative to the report."""
+    import os
+
     from .report import build_report, write_report
     from .study import StudySettings, open_study
 
@@ -389,6 +394,7 @@ def run_report(
         loading=None if loading_nc is None else io.read_dataset(loading_nc),
         constructions=_construction_studies(construction_ncs, construction_greens_ncs),
         claim6=None if claim6_nc is None else io.read_dataset(claim6_nc),
+        figures=[Path(os.path.relpath(p, Path(out_md).parent)).as_posix() for p in figure_pngs],
     )
     if spring_comparison:
         from .report.spring_comparison import spring_comparison_section
@@ -627,8 +633,12 @@ def run_rolling_figures(rolling_nc: str | Path, map_ncs: Sequence[str | Path], o
     plot_rolling_figures(io.read_dataset(rolling_nc), [io.read_dataset(p) for p in map_ncs], [str(p) for p in outputs])
 
 
-def run_rolling_report(rolling_nc: str | Path, out_md: str | Path) -> None:
-    """``results/rolling.md``: the report's rolling section (table per material and speed)."""
+def run_rolling_report(rolling_nc: str | Path, out_md: str | Path, figure_pngs: Sequence[str | Path] = ()) -> None:
+    """``results/rolling.md``: the report's rolling section (table per material and speed), and the
+    figures ``figure_pngs`` embedded with their captions, linked relative to the report."""
+    import os
+
     from .report import build_rolling_report, write_report
 
-    write_report(build_rolling_report(io.read_dataset(rolling_nc)), out_md)
+    figures = [Path(os.path.relpath(p, Path(out_md).parent)).as_posix() for p in figure_pngs]
+    write_report(build_rolling_report(io.read_dataset(rolling_nc), figures=figures), out_md)

@@ -57,7 +57,7 @@ import scipy.fft
 import xarray as xr
 from scipy.optimize import brentq
 
-from . import scans
+from . import io, scans
 from .texture import (
     MPD_BASELINE,
     PEAK_DEPTHS,
@@ -879,8 +879,8 @@ def surface_dataset(
                                   baseline=baseline)),
             "rms_height": ((), rms, meta("m", "rms height of the field")),
             "skewness": ((), skew, meta("1", "skewness of the field heights")),
-            "texture_level": (("band",), level, meta(
-                "dB re 1e-6 m", "1/3-octave texture level of the field (ISO 13473-4 style, profiles along x)")),
+            "texture_level": (("band",), level, io.level_attrs(
+                "1/3-octave texture level of the field (ISO 13473-4 style, profiles along x)", 1e-6, "m")),
             "peak_fraction_within": (("depth",), fractions, meta(
                 "1", "fraction of the patch's element peaks within depth of its highest peak")),
         },

@@ -14,7 +14,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
-from matplotlib.lines import Line2D  # noqa: E402
+from matplotlib.ticker import FormatStrFormatter  # noqa: E402
 
 from ..io import atomic_path  # noqa: E402
 
@@ -77,11 +77,23 @@ def _group_label(datasets, group) -> str:
     return " = ".join(names) + " (same curve)"
 
 
-def plot_materials(datasets: list, path) -> Path:
-    """SPEC fig 2: storage and loss modulus, and loss factor, against frequency per material.
+#: Line styles cycled per material (with the colour), so that crossing or close curves stay apart.
+_LINESTYLES = ["-", "--", "-.", (0, (5, 1, 1, 1, 1, 1)), (0, (8, 2))]
 
-    Materials with the same E(f) (e.g. the density variants of a material) would draw the same
-    curve on top of each other: they are drawn once, labelled ``a = b = c (same curve)``.
+
+def _material_style(n: int) -> dict:
+    """Colour and line style of the n-th material (or group of identical materials)."""
+    return {"color": f"C{n % 10}", "ls": _LINESTYLES[n % len(_LINESTYLES)]}
+
+
+def plot_materials(datasets: list, path) -> Path:
+    """SPEC fig 2: storage modulus, loss modulus and loss factor against frequency per material.
+
+    One panel each for E', E'' and eta; every material has its own colour and line style, and the
+    legend sits below the panels (outside the axes), so that added compounds neither hide each
+    other nor disappear behind the legend. Materials with the same E(f) (e.g. the density
+    variants of a material) would draw the same curve on top of each other: they are drawn once,
+    labelled ``a = b = c (same curve)``.
 
     Parameters
     ----------
@@ -96,7 +108,7 @@ def plot_materials(datasets: list, path) -> Path:
     pathlib.Path
     """
     _check(datasets, _REQUIRED_MATERIAL, "plot_materials")
-    fig, (ax_e, ax_eta) = plt.subplots(1, 2, figsize=(11, 4.6), constrained_layout=True)
+    fig, (ax_e1, ax_e2, ax_eta) = plt.subplots(1, 3, figsize=(13, 4.8), layout="constrained")
     handles = []
     for n, group in enumerate(_groups(datasets, _same_material_curve)):
         ds = datasets[group[0]]
@@ -104,24 +116,24 @@ def plot_materials(datasets: list, path) -> Path:
         keep = f > 0
         e1 = ds["storage_modulus"].values[keep]
         eta = ds["loss_factor"].values[keep]
-        colour = f"C{n}"
+        style = _material_style(n)
         label = _group_label(datasets, group)
-        ax_e.loglog(f[keep], e1 / 1e6, color=colour)
-        ax_e.loglog(f[keep], e1 * eta / 1e6, color=colour, ls="--")
-        (h,) = ax_eta.semilogx(f[keep], eta, color=colour, label=label)
+        ax_e1.loglog(f[keep], e1 / 1e6, lw=1.6, **style)
+        ax_e2.loglog(f[keep], e1 * eta / 1e6, lw=1.6, **style)
+        (h,) = ax_eta.semilogx(f[keep], eta, lw=1.6, label=label, **style)
         handles.append(h)
-    ax_e.set_xlabel("frequency [Hz]")
-    ax_e.set_ylabel("modulus [MPa]")
-    ax_e.set_title("storage E' (solid) and loss E'' (dashed) modulus")
-    ax_e.grid(True, which="both", alpha=0.3)
-    style = [Line2D([], [], color="0.3", label="E' (storage)"), Line2D([], [], color="0.3", ls="--", label="E'' (loss)")]
-    ax_e.legend(handles=style + handles, labels=[h.get_label() for h in style + handles], fontsize=7)
-    ax_eta.set_xlabel("frequency [Hz]")
-    ax_eta.set_ylabel("loss factor η [-]")
+    for ax, title, ylabel in ((ax_e1, "storage modulus E'", "E' [MPa]"), (ax_e2, "loss modulus E''", "E'' [MPa]"),
+                              (ax_eta, "loss factor η = E''/E'", "η [-]")):
+        ax.set_xlabel("frequency [Hz]")
+        ax.set_ylabel(ylabel)
+        ax.set_title(title)
+        ax.grid(True, which="both", alpha=0.3)
+    for ax in (ax_e1, ax_e2):  # plain numbers (40, 60, 100), not 4 x 10^1, on the log modulus axes
+        ax.yaxis.set_major_formatter(FormatStrFormatter("%g"))
+        ax.yaxis.set_minor_formatter(FormatStrFormatter("%g"))
     ax_eta.set_ylim(bottom=0)
-    ax_eta.set_title("loss factor")
-    ax_eta.grid(True, which="both", alpha=0.3)
-    ax_eta.legend(fontsize=7)
+    fig.legend(handles=handles, labels=[h.get_label() for h in handles], loc="outside lower center",
+               ncol=min(3, len(handles)), fontsize=9, frameon=False)
     return _save(fig, path)
 
 
@@ -138,8 +150,10 @@ def _coincide_below(freqs, mags, rel=0.01) -> float | None:
 def plot_frf(datasets: list, path) -> Path:
     """SPEC fig 3: |g| at the excitation element against frequency, with the quasi-static value.
 
-    The quasi-static g (g(omega = 0) with the quasi-static modulus) is a horizontal line, drawn once
-    per distinct value in black (dotted) and labelled with the materials it belongs to. A note says
+    Every material has its own colour and line style; the legend sits outside the axes (right).
+    The quasi-static g (g(omega = 0) with the quasi-static modulus) is a horizontal dotted line,
+    drawn once per distinct value in the colour of its first material (black when one value
+    stands for all) and labelled with the materials it belongs to. A note says
     below which frequency the material curves coincide, and why the quasi-static level lies above
     the lowest FRF sample: with the default quasi-static modulus E(omega -> 0) the material is
     still creeping below the first frequency sample (fractional model), so |g(f_1)| < g_static.
@@ -157,22 +171,24 @@ def plot_frf(datasets: list, path) -> Path:
     pathlib.Path
     """
     _check(datasets, _REQUIRED_FRF, "plot_frf")
-    fig, ax = plt.subplots(figsize=(7.5, 5.0), constrained_layout=True)
+    fig, ax = plt.subplots(figsize=(11, 5.2), layout="constrained")
     mags, freqs = [], None
     for i, ds in enumerate(datasets):
         f = ds["frequency"].values
         keep = f > 0
         mag = np.hypot(ds["frf_real"].values, ds["frf_imag"].values)[keep]
-        ax.loglog(f[keep], mag, color=f"C{i}", label=_label(ds, i))
+        ax.loglog(f[keep], mag, lw=1.5, label=_label(ds, i), **_material_style(i))
         if freqs is None or (freqs.shape == f[keep].shape and np.allclose(freqs, f[keep])):
             freqs = f[keep]
             mags.append(mag)
     statics = [float(ds["g_static"].sel(dx=0, dy=0)) for ds in datasets]
-    styles = [":", "-.", (0, (1, 3))]
-    for n, group in enumerate(_groups(list(range(len(datasets))), lambda a, b: np.isclose(statics[a], statics[b], rtol=1e-9))):
+    static_groups = _groups(list(range(len(datasets))), lambda a, b: np.isclose(statics[a], statics[b], rtol=1e-9))
+    for group in static_groups:
         names = [_label(datasets[i], i) for i in group]
         who = "all materials" if len(group) == len(datasets) and len(group) > 1 else ", ".join(names)
-        ax.axhline(statics[group[0]], color="k", ls=styles[n % len(styles)], lw=1.2, label=f"quasi-static g ({who})")
+        # dotted, in the colour of its (first) material; black when it stands for all of them
+        colour = "k" if len(static_groups) == 1 else _material_style(group[0])["color"]
+        ax.axhline(statics[group[0]], color=colour, ls=":", lw=1.4, label=f"quasi-static g ({who})")
     notes = []
     if len(mags) == len(datasets) and len(datasets) > 1:
         below = _coincide_below(freqs, mags)
@@ -197,5 +213,5 @@ def plot_frf(datasets: list, path) -> Path:
     ax.set_title("element receptance |g(f)| and quasi-static g")
     ax.grid(True, which="both", alpha=0.3)
     ax.set_ylim(top=1.2 * max(statics))
-    ax.legend(fontsize=7.5, loc="lower left", bbox_to_anchor=(0.0, 0.17))
+    ax.legend(fontsize=9, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
     return _save(fig, path)

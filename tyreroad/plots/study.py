@@ -71,6 +71,28 @@ def _colors(n: int) -> list:
     return [plt.get_cmap("viridis")(x) for x in np.linspace(0.0, 0.85, n)]
 
 
+def study_caption(study: xr.Dataset, source: str | Path | None = None) -> str:
+    """One line naming the study a figure comes from: results file, surface and material set.
+
+    Parameters
+    ----------
+    study : xarray.Dataset
+        The study dataset (attributes ``surface`` and ``reference_material``).
+    source : path-like, optional
+        The study file (``{results_dir}/study.nc``); left out of the line when not given.
+    """
+    materials = list(dict.fromkeys(study["material"].values.astype(str)))
+    ref = study.attrs.get("reference_material", "?")
+    where = f"study {Path(source).as_posix()}, " if source is not None else ""
+    shown = ", ".join(materials) if len(materials) <= 3 else f"{len(materials)} materials"
+    return f"{where}surface {study.attrs.get('surface', '?')}, {shown} (reference {ref})"
+
+
+def _caption(fig, caption: str | None) -> None:
+    if caption:
+        fig.suptitle(caption, fontsize=8, color="0.3")
+
+
 def _save(fig, path: str | Path) -> Path:
     with io.atomic_path(path) as tmp:
         fig.savefig(tmp, format="png", dpi=150)
@@ -79,8 +101,12 @@ def _save(fig, path: str | Path) -> Path:
     return Path(path)
 
 
-def plot_force(study: xr.Dataset, path: str | Path, reference_material: str | None = None) -> Path:
-    """Figure 5: total contact force F(d) of the reference material (QS and every acceleration)."""
+def plot_force(study: xr.Dataset, path: str | Path, reference_material: str | None = None,
+               caption: str | None = None) -> Path:
+    """Figure 5: total contact force F(d) of the reference material (QS and every acceleration).
+
+    ``caption`` (e.g. :func:`study_caption`) is printed above the title.
+    """
     ref = _reference(study, reference_material)
     d = study["indentation"].values * _MM
     fig, ax = plt.subplots(figsize=(6.4, 4.6), layout="constrained")
@@ -89,16 +115,21 @@ def plot_force(study: xr.Dataset, path: str | Path, reference_material: str | No
         ax.plot(d, c["force"].values, color=color, ls="--" if label == "quasi-static" else "-", label=label)
     ax.set_xlabel("indentation d [mm]")
     ax.set_ylabel("contact force F [N]")
-    ax.set_title(f"Contact force, material {ref}")
+    ax.set_title(f"Contact force, material {ref}, surface {study.attrs.get('surface', '?')}")
     ax.set_xlim(0, d[-1])
     ax.set_ylim(bottom=0)
     ax.grid(alpha=0.3)
     ax.legend()
+    _caption(fig, caption)
     return _save(fig, path)
 
 
-def plot_stiffness(study: xr.Dataset, path: str | Path, reference_material: str | None = None) -> Path:
-    """Figure 6: contact stiffness K(d) (top) and fraction of elements in contact (bottom)."""
+def plot_stiffness(study: xr.Dataset, path: str | Path, reference_material: str | None = None,
+                   caption: str | None = None) -> Path:
+    """Figure 6: contact stiffness K(d) (top) and fraction of elements in contact (bottom).
+
+    ``caption`` (e.g. :func:`study_caption`) is printed above the title.
+    """
     ref = _reference(study, reference_material)
     d = study["indentation"].values * _MM
     fig, (ax, ax2) = plt.subplots(
@@ -114,7 +145,7 @@ def plot_stiffness(study: xr.Dataset, path: str | Path, reference_material: str 
         sat = np.atleast_1d(sat)
         ax.axvspan(sat[0] * _MM, sat[1] * _MM, color="0.9", zorder=0, label="K_sat range")
     ax.set_ylabel("contact stiffness K [MN/m]")
-    ax.set_title(f"Contact stiffness, material {ref}")
+    ax.set_title(f"Contact stiffness, material {ref}, surface {study.attrs.get('surface', '?')}")
     ax.set_ylim(bottom=0)
     ax.grid(alpha=0.3)
     ax.legend(loc="lower right")
@@ -124,11 +155,13 @@ def plot_stiffness(study: xr.Dataset, path: str | Path, reference_material: str 
         if spread < 2.0:  # the dynamic curves hide each other: say so
             ax2.text(0.02, 0.9, f"dynamic curves coincide (within {spread:.1f} percentage points)",
                      transform=ax2.transAxes, fontsize=8, va="top")
+    ax2.legend(loc="lower right", fontsize=8, ncol=2, framealpha=0.85)
     ax2.set_xlabel("indentation d [mm]")
     ax2.set_ylabel("elements in contact [%]")
     ax2.set_xlim(0, d[-1])
     ax2.set_ylim(0, 100)
     ax2.grid(alpha=0.3)
+    _caption(fig, caption)
     return _save(fig, path)
 
 
@@ -138,6 +171,7 @@ def plot_variants(
     kind: str,
     accel: float,
     path: str | Path,
+    caption: str | None = None,
 ) -> Path:
     """Figures 7/8: K(d) of material variants at one acceleration, and their difference to the reference.
 
@@ -157,6 +191,8 @@ def plot_variants(
         Acceleration of the dynamic runs shown [m/s^2].
     path : path-like
         Output PNG.
+    caption : str, optional
+        A line above the title naming the study (e.g. :func:`study_caption`).
     """
     symbol = {"loss": "η", "density": "ρ"}[kind]
     what = {"loss": "loss factor", "density": "density"}[kind]
@@ -184,7 +220,12 @@ def plot_variants(
     ax.set_title(f"Contact stiffness, {what}, dynamic a = {accel:g} m/s²")
     ax.set_ylim(bottom=0)
     ax.grid(alpha=0.3)
-    ax.legend(loc="lower right", fontsize=8, title="curves overlap here: see K − K_ref below", title_fontsize=7.5)
+    # the title only where the variants' curves do lie on top of each other (within 2 % of K's top)
+    overlap = k_ref is not None and all(
+        np.nanmax(np.abs(study.study.sel_case(material=m, mode="dynamic", accel=accel)["stiffness"].values - k_ref))
+        < 0.02 * np.nanmax(np.abs(k_ref)) for _, m in members)
+    ax.legend(loc="lower right", fontsize=8, title="curves overlap here: see K − K_ref below" if overlap else None,
+              title_fontsize=7.5)
     ax2.set_xlabel("indentation d [mm]")
     ax2.set_ylabel("K − K_ref [kN/m]")
     ax2.set_xlim(0, d[-1])
@@ -194,6 +235,7 @@ def plot_variants(
         sat = np.atleast_1d(sat)
         for a_ in (ax, ax2):
             a_.axvspan(sat[0] * _MM, sat[1] * _MM, color="0.92", zorder=0)
+    _caption(fig, caption)
     return _save(fig, path)
 
 
@@ -203,6 +245,7 @@ def plot_study_figures(
     outputs: Mapping[str, str | Path] | Sequence[str | Path],
     reference_material: str | None = None,
     accel: float | None = None,
+    source: str | Path | None = None,
 ) -> list[Path]:
     """Write figures 5-8.
 
@@ -218,6 +261,8 @@ def plot_study_figures(
         Default: the study's ``reference_material`` attribute.
     accel : float, optional
         Acceleration of figures 7-8 [m/s^2]; default the highest dynamic acceleration.
+    source : path-like, optional
+        The study file, named in each figure's caption line with the surface and the materials.
 
     Returns
     -------
@@ -237,9 +282,11 @@ def plot_study_figures(
     if accel is None:
         accel = _accels(study, ref)[-1]
     materials = list(dict.fromkeys(study["material"].values.astype(str)))
+    caption = study_caption(study, source)
     return [
-        plot_force(study, paths[0], ref),
-        plot_stiffness(study, paths[1], ref),
-        plot_variants(study, variant_members(variants, "loss", materials, ref), "loss", accel, paths[2]),
-        plot_variants(study, variant_members(variants, "density", materials, ref), "density", accel, paths[3]),
+        plot_force(study, paths[0], ref, caption),
+        plot_stiffness(study, paths[1], ref, caption),
+        plot_variants(study, variant_members(variants, "loss", materials, ref), "loss", accel, paths[2], caption),
+        plot_variants(study, variant_members(variants, "density", materials, ref), "density", accel, paths[3],
+                      caption),
     ]

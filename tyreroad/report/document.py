@@ -25,6 +25,7 @@ from .sections import (
     claim6_section,
     decides_section,
     equivalent_section,
+    figures_section,
     greens_by_material,
     header_section,
     hysteresis_section,
@@ -56,11 +57,13 @@ REPORT_SECTIONS: tuple[Section, ...] = (
     surface_section,
     material_section,
     hysteresis_section,
+    figures_section,
     config_section,
 )
 
 #: The sections of ``results/rolling.md``, in order.
-ROLLING_REPORT_SECTIONS: tuple[Section, ...] = (rolling_header_section, rolling_section, config_section)
+ROLLING_REPORT_SECTIONS: tuple[Section, ...] = (rolling_header_section, rolling_section, figures_section,
+                                                config_section)
 
 
 def _assemble(sections: Sequence[Section], ctx: ReportContext) -> str:
@@ -82,6 +85,7 @@ def build_report(
     thresholds: Mapping[str, float] | None = None,
     constructions: Mapping[str, tuple] | None = None,
     claim6: xr.Dataset | None = None,
+    figures: Sequence[str] = (),
 ) -> str:
     """The markdown text of ``results/report.md``.
 
@@ -115,6 +119,9 @@ def build_report(
     claim6 : xarray.Dataset, optional
         ``results/claim6.nc`` (:mod:`tyreroad.claim6`): the claim-6 table by loss-variant definition;
         None omits it.
+    figures : sequence of str, optional
+        Figure files as paths relative to the report's folder (``figures/fig5_force.png``): the
+        section that shows each with its caption; empty omits it.
 
     Returns
     -------
@@ -150,11 +157,13 @@ def build_report(
             ClaimContext(study_ds, settings, variants, thresholds)))
             for name, (study_ds, g) in (constructions or {}).items()},
         claim6=claim6,
+        figures=tuple(figures),
     )
     return _assemble(REPORT_SECTIONS, ctx)
 
 
-def build_rolling_report(rolling: xr.Dataset, thresholds: Mapping[str, float] | None = None) -> str:
+def build_rolling_report(rolling: xr.Dataset, thresholds: Mapping[str, float] | None = None,
+                         figures: Sequence[str] = ()) -> str:
     """The markdown text of ``results/rolling.md`` from ``results/rolling.nc``.
 
     Parameters
@@ -164,9 +173,11 @@ def build_rolling_report(rolling: xr.Dataset, thresholds: Mapping[str, float] | 
         provenance (the ``config`` attribute is printed as the config section).
     thresholds : mapping, optional
         Overrides of :data:`tyreroad.report.claims.THRESHOLDS`.
+    figures : sequence of str, optional
+        Figures 11-14 as paths relative to the report's folder: shown with their captions.
     """
     ctx = ReportContext(thresholds={**THRESHOLDS, **dict(thresholds or {})},
-                        config_text=str(rolling.attrs.get("config", "")), rolling=rolling)
+                        config_text=str(rolling.attrs.get("config", "")), rolling=rolling, figures=tuple(figures))
     return _assemble(ROLLING_REPORT_SECTIONS, ctx)
 
 

@@ -33,6 +33,7 @@ __all__ = [
     "surface_section",
     "material_section",
     "hysteresis_section",
+    "figures_section",
     "rolling_header_section",
     "rolling_section",
     "config_section",
@@ -71,6 +72,9 @@ class ReportContext:
         other kernel constructions (``study.compare_constructions``).
     claim6 : xarray.Dataset or None
         ``results/claim6.nc`` (claim 6 by loss-variant definition, :mod:`tyreroad.claim6`).
+    figures : sequence of str
+        The report's figures, as paths relative to the report's folder (``figures/fig5_force.png``):
+        embedded with their captions (:mod:`tyreroad.report.figures`).
     """
 
     thresholds: Mapping[str, float] = field(default_factory=lambda: dict(THRESHOLDS))
@@ -85,6 +89,14 @@ class ReportContext:
     rolling: xr.Dataset | None = None
     constructions: Mapping[str, tuple] = field(default_factory=dict)
     claim6: xr.Dataset | None = None
+    figures: Sequence[str] = ()
+
+
+def figures_section(ctx: ReportContext) -> list[str]:
+    """Each figure of the study embedded (relative link) with its one-line caption."""
+    from .figures import figures_section_lines
+
+    return figures_section_lines(ctx.figures)
 
 
 def greens_by_material(greens: Mapping[str, xr.Dataset] | Sequence[xr.Dataset] | None) -> dict[str, xr.Dataset]:

@@ -7,6 +7,7 @@ from typing import Mapping, Sequence
 import numpy as np
 import xarray as xr
 
+from ..io import level_attrs
 from .analysis import band_levels, belt_power, pass_work, steady_mask, third_octave_centres
 from .recorder import RollingResult
 from .settings import RollingSettings
@@ -211,7 +212,7 @@ def aggregate_rolling(runs: Sequence[xr.Dataset], band_limits=(100.0, 5000.0)) -
     }
     data = {k: ("case", np.array([row[k] for row in rows]), a(*v)) for k, v in scal.items()}
     data["band_level"] = (("case", "band"), np.array([row["band_level"] for row in rows]),
-                          a("dB re 1 N", "1/3-octave level of the force fluctuation over the steady part"))
+                          level_attrs("1/3-octave level of the force fluctuation over the steady part", 1.0, "N"))
     data["force_curve"] = (("case", "position"), np.array([row["curve"] for row in rows]),
                            a("N", "total force against x_c"))
     coords = {

@@ -198,6 +198,11 @@ def all_targets():
 STUDY_FIGURES = ["fig5_force", "fig6_stiffness", "fig7_loss", "fig8_density"]
 
 
+def report_figures():
+    """The default study's figures, which report.md shows with their captions."""
+    return [p for p in all_targets() if p.endswith(".png")]
+
+
 def fmt_speed(speed):
     """Speed as it appears in file names: '{:g}' of the value in m/s."""
     return f"{float(speed):g}"

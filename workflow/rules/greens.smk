@@ -23,8 +23,8 @@ rule greens_figures:
     input:
         greens=study_greens(),
     output:
-        material=f"{R}/figures/fig2_material.png",
-        frf=f"{R}/figures/fig3_frf.png",
+        material=report(f"{R}/figures/fig2_material.png", caption="../report/fig2_material.rst", category="Materials"),
+        frf=report(f"{R}/figures/fig3_frf.png", caption="../report/fig3_frf.rst", category="Materials"),
     log:
         f"{R}/logs/greens_figures.log",
     params:

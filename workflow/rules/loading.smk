@@ -40,7 +40,8 @@ rule hysteresis_figure:
     input:
         loading=f"{R}/loading.nc",
     output:
-        png=f"{R}/figures/fig10_hysteresis.png",
+        png=report(f"{R}/figures/fig10_hysteresis.png", caption="../report/fig10_hysteresis.rst",
+                   category="Load-unload cycles"),
     log:
         f"{R}/logs/hysteresis_figure.log",
     params:

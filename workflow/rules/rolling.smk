@@ -73,7 +73,8 @@ rule rolling_figures:
         study=f"{R}/rolling.nc",
         maps=rolling_map_runs() if ROLLING_SURFACES else [],
     output:
-        [f"{R}/figures/{name}.png" for name in ROLLING_FIGURES],
+        [report(f"{R}/figures/{name}.png", caption=f"../report/{name}.rst", category="Rolling")
+         for name in ROLLING_FIGURES],
     log:
         f"{R}/logs/rolling_figures.log",
     params:
@@ -86,6 +87,7 @@ rule rolling_figures:
 rule rolling_report:
     input:
         study=f"{R}/rolling.nc",
+        figures=[f"{R}/figures/{name}.png" for name in ROLLING_FIGURES],  # embedded with their captions
     output:
         md=f"{R}/rolling.md",
     log:

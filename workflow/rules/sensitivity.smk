@@ -41,7 +41,7 @@ rule sensitivity:
         points=lambda w: _point_files(SENSITIVITY_POINTS, R),
     output:
         nc=f"{R}/sensitivity.nc",
-        png=f"{R}/figures/sensitivity.png",
+        png=report(f"{R}/figures/sensitivity.png", caption="../report/sensitivity.rst", category="Sensitivity"),
         md=f"{R}/sensitivity.md",
     log:
         f"{R}/logs/sensitivity.log",

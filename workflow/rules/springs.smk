@@ -24,7 +24,8 @@ rule springs_figure:
     input:
         springs=f"{R}/springs/{{surface}}/{STUDY['reference_material']}.nc",
     output:
-        png=f"{R}/figures/springs_{{surface}}.png",
+        png=report(f"{R}/figures/springs_{{surface}}.png", caption="../report/springs.rst",
+                   category="Surface", subcategory="{surface}"),
     log:
         f"{R}/logs/springs_figure/{{surface}}.log",
     params:

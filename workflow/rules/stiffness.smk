@@ -34,7 +34,8 @@ rule stiffness_figure:
     input:
         spectra=stiffness_spectra(),
     output:
-        png=f"{R}/figures/fig9_stiffness_spectrum.png",
+        png=report(f"{R}/figures/fig9_stiffness_spectrum.png", caption="../report/fig9_stiffness_spectrum.rst",
+                   category="Stiffness spectrum"),
     log:
         f"{R}/logs/stiffness_figure.log",
     params:

@@ -18,7 +18,8 @@ rule study_figures:
     input:
         study=f"{R}/study.nc",
     output:
-        [f"{R}/figures/{name}.png" for name in STUDY_FIGURES],
+        [report(f"{R}/figures/{name}.png", caption=f"../report/{name}.rst", category="Study")
+         for name in STUDY_FIGURES],
     log:
         f"{R}/logs/study_figures.log",
     params:
@@ -40,6 +41,7 @@ rule report:
         constructions=construction_outputs(),
         construction_greens=construction_greens(),
         claim6=claim6_outputs(),
+        figures=report_figures(),  # embedded in report.md with their captions
     output:
         md=f"{R}/report.md",
     log:

@@ -3,7 +3,8 @@ rule prepare_surface:
         scan=scan_files,
     output:
         nc=f"{R}/surface/{{surface}}.nc",
-        png=f"{R}/figures/fig4_surface_{{surface}}.png",
+        png=report(f"{R}/figures/fig4_surface_{{surface}}.png", caption="../report/fig4_surface.rst",
+                   category="Surface", subcategory="{surface}"),
     log:
         f"{R}/logs/prepare_surface/{{surface}}.log",
     benchmark:

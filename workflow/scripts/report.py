@@ -22,4 +22,5 @@ pipeline.run_report(
     construction_greens_ncs=snakemake.input.get("construction_greens", []),
     spring_comparison=snakemake.params.get("spring_comparison"),
     claim6_nc=snakemake.input.claim6[0] if snakemake.input.get("claim6") else None,
+    figure_pngs=snakemake.input.get("figures", []),
 )

@@ -9,4 +9,5 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
 from tyreroad import log, pipeline
 
 log.configure(snakemake.log[0])
-pipeline.run_rolling_report(rolling_nc=snakemake.input.study, out_md=snakemake.output.md)
+pipeline.run_rolling_report(rolling_nc=snakemake.input.study, out_md=snakemake.output.md,
+                            figure_pngs=snakemake.input.get("figures", []))
