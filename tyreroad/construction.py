@@ -153,7 +153,7 @@ def symbol_support(tables: np.ndarray, n_phi: int = 361, pads=None):
     return phi, h
 
 
-def patch_support(tables: np.ndarray, shape, phi: np.ndarray) -> np.ndarray:
+def patch_support(tables: np.ndarray, shape, phi: np.ndarray, symmetry: bool = True) -> np.ndarray:
     """lambda_min Herm(e^{i phi} G_d) of the patch's M x M matrices (M = nx ny), per table and phi.
 
     Parameters
@@ -164,23 +164,34 @@ def patch_support(tables: np.ndarray, shape, phi: np.ndarray) -> np.ndarray:
         Patch (nx, ny) (the tables are cropped to it).
     phi : numpy.ndarray
         Angles [rad].
+    symmetry : bool
+        Solve on the four reflection blocks of the patch matrices (:mod:`tyreroad.symmetry`) when the tables
+        are even in dx and dy (the same eigenvalues); False: the patch matrices themselves (the reference).
 
     Returns
     -------
     numpy.ndarray (n, len(phi)) [m/N]
     """
     from .influence import offset_matrix
+    from .symmetry import ReflectionBlocks, is_reflection_even
 
     nx, ny = shape
     cx, cy = (tables.shape[1] - 1) // 2, (tables.shape[2] - 1) // 2
     out = np.empty((tables.shape[0], len(phi)))
+    crop = tables[:, cx - (nx - 1): cx + nx, cy - (ny - 1): cy + ny]
+    # the four reflection blocks (tyreroad.symmetry) carry the patch matrix's spectrum exactly, at 1/16 of the work
+    blocks = ReflectionBlocks(shape) if symmetry and is_reflection_even(crop) else None
+    re_t, im_t = np.ascontiguousarray(crop.real), np.ascontiguousarray(crop.imag)
     for k in range(tables.shape[0]):
-        a = offset_matrix(tables[k, cx - (nx - 1): cx + nx, cy - (ny - 1): cy + ny])
-        b, c = a.real.copy(), a.imag.copy()
+        if blocks is not None:
+            bs, cs = blocks.blocks(re_t[k]), blocks.blocks(im_t[k])
+        else:
+            a = offset_matrix(crop[k])
+            bs, cs = [a.real.copy()], [a.imag.copy()]
         for j, f in enumerate(phi):
             # the smallest eigenvalue alone (LAPACK evr): 3x cheaper than the whole spectrum on 400 x 400
-            out[k, j] = scipy.linalg.eigh(math.cos(f) * b - math.sin(f) * c, eigvals_only=True,
-                                          subset_by_index=[0, 0], check_finite=False)[0]
+            out[k, j] = min(scipy.linalg.eigh(math.cos(f) * b - math.sin(f) * c, eigvals_only=True,
+                                              subset_by_index=[0, 0], check_finite=False)[0] for b, c in zip(bs, cs))
     return out
 
 
@@ -247,7 +258,7 @@ def _fir(n_taps: int, theta: np.ndarray) -> np.ndarray:
 def design_correction(lags: np.ndarray, tail_compliance=None, weights=(), decays=(), shape=None,
                       sample_rate: float = 51200.0, band: float = 5000.0, fidelity_budget: float = 4e-3,
                       k_target: float = DEFAULT_K_TARGET, margin: float = 3e-7, n_taps: int = 128,
-                      n_theta: int = 512, n_phi: int = 16, max_rounds: int = 12) -> Correction:
+                      n_theta: int = 512, n_phi: int = 16, max_rounds: int = 12, symmetry: bool = True) -> Correction:
     """Design the spring-safe correction of a kernel's excitation element (see the module docstring).
 
     Parameters
@@ -274,6 +285,8 @@ def design_correction(lags: np.ndarray, tail_compliance=None, weights=(), decays
         theta points above ``band`` (plus 48 in it) and phi points on [-pi/12, pi/2].
     max_rounds : int
         LP rounds (phi re-chosen between rounds).
+    symmetry : bool
+        Eigen-solve the reflection blocks of the patch matrices (:func:`patch_support`; the same values).
 
     Returns
     -------
@@ -295,7 +308,7 @@ def design_correction(lags: np.ndarray, tail_compliance=None, weights=(), decays
     theta = theta_all[sel]
     phi = np.linspace(-np.pi / 12, np.pi / 2, n_phi)
     j0 = int(np.argmin(np.abs(phi)))
-    h = patch_support(tables[sel], shape, phi)
+    h = patch_support(tables[sel], shape, phi, symmetry=symmetry)
     allowance = np.cos(phi)[None, :] / k_target if math.isfinite(k_target) else 0.0
     hk = h + allowance
     fid = np.flatnonzero(theta_all <= t_band * 1.02)[::4]
