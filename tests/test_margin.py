@@ -212,6 +212,27 @@ def test_reflection_blocks_carry_the_whole_spectrum(shape):
         np.testing.assert_allclose(parts, whole, rtol=0, atol=1e-12 * np.abs(whole).max())
 
 
+@pytest.mark.parametrize("n", [2, 5, 6])
+def test_swap_blocks_hold_the_smallest_eigenvalue(n):
+    """A square patch whose table is also symmetric under dx <-> dy: the swap-split blocks (the odd-even one
+    left out, its spectrum is the even-odd one's) hold only eigenvalues of the patch matrix, among them the
+    smallest, at every phase."""
+    from tyreroad.symmetry import is_swap_symmetric, patch_blocks
+
+    table = _even_table(np.random.default_rng(5), n, n)
+    table = table + table.T
+    blocks = patch_blocks(table, (n, n))
+    assert blocks.swap and is_swap_symmetric(table)
+    a = offset_matrix(table)
+    re, im = blocks.blocks(table.real), blocks.blocks(table.imag)
+    for phi in (0.0, 0.4, np.pi / 2):
+        whole = np.linalg.eigvalsh(math.cos(phi) * a.real - math.sin(phi) * a.imag)
+        parts = np.concatenate([np.linalg.eigvalsh(math.cos(phi) * b - math.sin(phi) * c) for b, c in zip(re, im)])
+        tol = 1e-12 * np.abs(whole).max()
+        assert abs(parts.min() - whole[0]) <= tol
+        assert np.abs(parts[:, None] - whole[None, :]).min(axis=1).max() <= tol
+
+
 @pytest.fixture(scope="module")
 def odd_kernel(tread):
     """The 7 x 5 fold kernel (stable at fs/2 on this patch) with an excitation-element FIR that makes it fail

@@ -38,7 +38,7 @@ from .influence import offset_matrix_index
 from .kernel import LayerKernel
 from .solver import FFT_THRESHOLD
 from .stability import circulant_margin, mask_bands
-from .symmetry import ReflectionBlocks, is_reflection_even
+from .symmetry import fits, patch_blocks
 
 logger = logging.getLogger(__name__)
 
@@ -209,7 +209,7 @@ def _ladder(b, c, phi: float, tol: float) -> float:
 
 
 def patch_margin(kernel: LayerKernel, shape, n_theta: int = 1025, chunk: int = 64, symmetry: bool = True,
-                 max_dense: int = FFT_THRESHOLD) -> PatchMargin:
+                 max_dense: int = FFT_THRESHOLD, support=None) -> PatchMargin:
     """The stability margin of a dynamic kernel over an (nx, ny) patch, densely on theta in [0, pi].
 
     Parameters
@@ -224,12 +224,18 @@ def patch_margin(kernel: LayerKernel, shape, n_theta: int = 1025, chunk: int = 6
     chunk : int
         theta per transfer-function evaluation.
     symmetry : bool
-        Factor and eigen-solve the four reflection blocks of the patch matrices (:mod:`tyreroad.symmetry`:
-        the same spectrum, 1/16 of the work) when the kernel's tables are even in dx and dy; False: the
-        patch matrices themselves (the reference the tests compare with).
+        Factor and eigen-solve the reflection blocks of the patch matrices (:mod:`tyreroad.symmetry`: the
+        same spectrum, 1/16 of the work; on a square patch also split by the x <-> y swap) when the kernel's
+        tables are even in dx and dy; False: the patch matrices themselves (the tests' reference).
     max_dense : int
         Largest matrix (a block, or the patch matrix without ``symmetry``) factored densely; a patch whose
         largest one is bigger keeps the circulant bound alone.
+    support : (theta, phi, h), optional
+        lambda_min Herm(e^{i phi} G_d) of this kernel on this patch already computed (the correction's design,
+        :meth:`tyreroad.construction.Correction.margin_support`: theta (n,), phi (m,), h (n, m) [m/N]). At
+        grid points it covers, p > 0 is certified where max_phi h > tol and otherwise k_safe >=
+        max_phi cos phi / (tol - h) replaces the Cholesky ladder (the same certificate from the eigenvalues);
+        it is spot-checked against this kernel's own matrices first and ignored if it does not match.
 
     Returns
     -------
@@ -245,8 +251,9 @@ def patch_margin(kernel: LayerKernel, shape, n_theta: int = 1025, chunk: int = 6
     blocks = None
     if symmetry and todo.size:
         probe = kernel.own_frequency_response(theta[todo[:1]] * fs / (2 * np.pi), shape)
-        if is_reflection_even(np.moveaxis(kernel.table(shape), -1, 0)) and is_reflection_even(probe):
-            blocks = ReflectionBlocks(shape)
+        lag_blocks = patch_blocks(np.moveaxis(kernel.table(shape), -1, 0), shape)
+        if lag_blocks is not None and fits(lag_blocks, probe):
+            blocks = lag_blocks
     largest = max(blocks.sizes) if blocks is not None else nx * ny
     if largest > max_dense:
         out = PatchMargin(theta, bound.p_bound, k_safe, "circulant", seconds=time.perf_counter() - t0,
@@ -255,14 +262,17 @@ def patch_margin(kernel: LayerKernel, shape, n_theta: int = 1025, chunk: int = 6
         return out
     if blocks is None:
         ix, iy = offset_matrix_index(shape)
-    certified = full = 0
+    known = {}
+    if support is not None and todo.size:
+        known = _support_rows(kernel, shape, theta, todo, support, blocks)
+    certified = full = reused = 0
     rung, pending = {}, {}
     ladder_phi = math.pi / 4
     phi = math.pi / 2  # a lossy layer's compliance is certified by its dissipation, phi = +pi/2
     for start in range(0, todo.size, chunk):
         idx = todo[start:start + chunk]
         tables = kernel.own_frequency_response(theta[idx] * fs / (2 * np.pi), shape)
-        use_blocks = blocks is not None and is_reflection_even(tables)
+        use_blocks = blocks is not None and fits(blocks, tables)
         if use_blocks:
             re_tables, im_tables = np.ascontiguousarray(tables.real), np.ascontiguousarray(tables.imag)
         elif blocks is not None:  # not even after all (a kernel the probe did not show): the patch matrices
@@ -273,6 +283,16 @@ def patch_margin(kernel: LayerKernel, shape, n_theta: int = 1025, chunk: int = 6
             # the largest |entry| of Re / Im G_d: every offset of the cropped table is an entry of the patch matrix
             scale = max(float(np.abs(tables[j].real).max()), float(np.abs(tables[j].imag).max()))
             tol = MARGIN_TOLERANCE * scale
+            if i in known:  # lambda_min on a phase grid already known: certified, or a lower bound of k_safe
+                reused += 1
+                lb = _support_bound(known[i], tol)
+                if lb == math.inf:
+                    k_safe[i] = math.inf
+                    certified += 1
+                else:
+                    rung[i] = lb
+                    pending[i] = (tables[j].copy(), use_blocks, scale)
+                continue
             if use_blocks:
                 b, c = blocks.blocks(re_tables[j]), blocks.blocks(im_tables[j])
             else:
@@ -290,6 +310,15 @@ def patch_margin(kernel: LayerKernel, shape, n_theta: int = 1025, chunk: int = 6
                 # p <= 0 here: certify k_safe >= K on a ladder (Re G_d + I / K > 0 at phi = 0), bisected
                 rung[i] = max(_ladder(b, c, trial, tol) for trial in dict.fromkeys((ladder_phi, 0.0)))
                 pending[i] = (b, c, scale)
+    for i, item in pending.items():  # the reused points' matrices, for the branch and bound below
+        if len(item) == 3 and isinstance(item[1], bool):
+            table, as_blocks, scale = item
+            if as_blocks:
+                pending[i] = (blocks.blocks(np.ascontiguousarray(table.real)),
+                              blocks.blocks(np.ascontiguousarray(table.imag)), scale)
+            else:
+                a = table[offset_matrix_index(shape)]
+                pending[i] = ([a.real.copy()], [a.imag.copy()], scale)
     # full solves only where the ladder cannot exclude a spring below the smallest one found (branch and bound);
     # before one, a Cholesky at the smallest k_safe found (at the phases of the last full solve and 0) may
     # already certify k_safe >= it there
@@ -314,6 +343,49 @@ def patch_margin(kernel: LayerKernel, shape, n_theta: int = 1025, chunk: int = 6
         full += 1
     out = PatchMargin(theta, bound.p_bound, k_safe, "patch", certified, full, time.perf_counter() - t0, kernel.name)
     logger.info("stability margin %s: %d theta proven by the circulant bound, %d certified on the patch, %d "
-                "certified at k_crit, %d in full (%s)", out.describe(), theta.size - todo.size, certified, screened,
-                full, f"reflection blocks {blocks.sizes}" if blocks is not None else "whole patch matrices")
+                "certified at k_crit, %d in full (%s; %d theta from the design's eigenvalues)", out.describe(),
+                theta.size - todo.size, certified, screened, full,
+                f"reflection blocks {blocks.sizes}" if blocks is not None else "whole patch matrices", reused)
     return out
+
+
+def _support_bound(h_row: tuple, tol: float) -> float:
+    """inf where some phase certifies p > 0 (lambda_min > tol), else the largest cos phi / (tol - lambda_min)
+    over the phases with cos phi > 0 (0 if none): a certified lower bound of k_safe."""
+    phis, values = h_row
+    if float(np.max(values)) > tol:
+        return math.inf
+    cos = np.cos(phis)
+    ok = cos > 1e-12
+    return float(np.max(cos[ok] / (tol - values[ok]))) if ok.any() else 0.0
+
+
+def _support_rows(kernel, shape, theta, todo, support, blocks, checks: int = 3) -> dict:
+    """{grid index: (phi, lambda_min)} of the support's rows on the margin's theta grid (matched to 1e-12 rad),
+    after checking ``checks`` of them against eigen-solves of this kernel's own matrices ({} if one differs by
+    more than MARGIN_TOLERANCE of the matrix scale)."""
+    s_theta, s_phi, s_h = (np.asarray(v, dtype=float) for v in support)
+    pos = np.clip(np.searchsorted(s_theta, theta[todo]), 0, s_theta.size - 1)
+    prev = np.clip(pos - 1, 0, s_theta.size - 1)
+    pos = np.where(np.abs(s_theta[prev] - theta[todo]) < np.abs(s_theta[pos] - theta[todo]), prev, pos)
+    hit = np.abs(s_theta[pos] - theta[todo]) <= 1e-12
+    rows = {int(i): int(r) for i, r, h in zip(todo, pos, hit) if h}
+    if not rows:
+        return {}
+    sample = sorted(rows)[:: max(1, len(rows) // checks)][:checks]
+    tables = kernel.own_frequency_response(theta[sample] * kernel.sample_rate / (2 * np.pi), shape)
+    for t, i in zip(tables, sample):
+        scale = max(float(np.abs(t.real).max()), float(np.abs(t.imag).max()))
+        if blocks is not None:
+            b, c = blocks.blocks(np.ascontiguousarray(t.real)), blocks.blocks(np.ascontiguousarray(t.imag))
+        else:
+            a = t[offset_matrix_index(shape)]
+            b, c = [a.real.copy()], [a.imag.copy()]
+        for j in (0, s_phi.size - 1):
+            own = min(_lambda_min(m) for m in _herm(b, c, float(s_phi[j])))
+            if abs(own - s_h[rows[i], j]) > MARGIN_TOLERANCE * scale:
+                logger.warning("stability margin %s: the given support differs from the kernel's own matrices at "
+                               "theta = %.4f pi (%.3e against %.3e m/N): not used", kernel.name, theta[i] / np.pi,
+                               s_h[rows[i], j], own)
+                return {}
+    return {i: (s_phi, s_h[r]) for i, r in rows.items()}

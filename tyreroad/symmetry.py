@@ -27,13 +27,37 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse
 
-__all__ = ["ReflectionBlocks", "is_reflection_even"]
+__all__ = ["ReflectionBlocks", "is_reflection_even", "is_swap_symmetric", "patch_blocks", "fits"]
 
 
 def is_reflection_even(table: np.ndarray) -> bool:
     """True when a (..., 2 nx - 1, 2 ny - 1) offset table is exactly even in dx and in dy."""
     t = np.asarray(table)
     return bool(np.array_equal(t, t[..., ::-1, :]) and np.array_equal(t, t[..., :, ::-1]))
+
+
+def is_swap_symmetric(table: np.ndarray) -> bool:
+    """True when a (..., 2 n - 1, 2 n - 1) offset table is exactly symmetric under dx <-> dy."""
+    t = np.asarray(table)
+    return t.shape[-1] == t.shape[-2] and bool(np.array_equal(t, np.swapaxes(t, -1, -2)))
+
+
+def _swap_basis(m: int, sign: float):
+    """Orthonormal basis (m^2 x k, sparse) of the m x m block's vectors with v[j, i] = sign v[i, j]."""
+    rows, cols, vals = [], [], []
+    k = 0
+    for i in range(m):
+        for j in range(i, m):
+            if i == j:
+                if sign > 0:
+                    rows.append(i * m + i), cols.append(k), vals.append(1.0)
+                    k += 1
+                continue
+            rows += [i * m + j, j * m + i]
+            cols += [k, k]
+            vals += [1 / np.sqrt(2.0), sign / np.sqrt(2.0)]
+            k += 1
+    return scipy.sparse.csr_matrix((vals, (rows, cols)), shape=(m * m, k))
 
 
 def _axis_fold(n: int, odd: bool):
@@ -55,18 +79,26 @@ class ReflectionBlocks:
     ----------
     shape : (int, int)
         Patch (nx, ny); blocks of zero size (a 1-element axis has no odd part) are left out.
+    swap : bool
+        A square patch whose tables are also symmetric under x <-> y (:func:`is_swap_symmetric`): the
+        swap splits the even-even and odd-odd blocks into their swap-symmetric and -antisymmetric parts
+        (m (m + 1) / 2 and m (m - 1) / 2) and maps the even-odd block onto the odd-even one (the same
+        spectrum: only one is kept). 20 x 20: blocks 55, 45, 100, 55, 45 (2.6x less work than four of 100).
 
     Attributes
     ----------
     sizes : list of int
-        The blocks' sizes (their sum is nx ny).
+        The blocks' sizes (their sum is nx ny, less the odd-even block's with ``swap``).
     """
 
-    def __init__(self, shape):
+    def __init__(self, shape, swap: bool = False):
         nx, ny = (int(v) for v in shape)
         if nx < 1 or ny < 1:
             raise ValueError(f"patch shape must be positive, got {shape}")
+        if swap and nx != ny:
+            raise ValueError(f"the x <-> y swap needs a square patch, got {shape}")
         self.shape = (nx, ny)
+        self.swap = bool(swap)
         self._parts = []
         for odd_x in (False, True):
             fx = _axis_fold(nx, odd_x)
@@ -88,7 +120,15 @@ class ReflectionBlocks:
                         vals.append(sx * sy * weight)
                 fold = scipy.sparse.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
                                                shape=(m * m, (2 * nx - 1) * (2 * ny - 1)))
-                self._parts.append((fold, m))
+                if not swap:
+                    self._parts.append((fold, m))
+                elif odd_x == odd_y:  # swap-symmetric and -antisymmetric parts
+                    for sign in (1.0, -1.0):
+                        p = _swap_basis(mx, sign)
+                        if p.shape[1]:
+                            self._parts.append(((scipy.sparse.kron(p.T, p.T) @ fold).tocsr(), p.shape[1]))
+                elif not odd_x:  # even-odd; odd-even has the same spectrum
+                    self._parts.append((fold, m))
         self.sizes = [p[1] for p in self._parts]
 
     def blocks(self, table: np.ndarray) -> list[np.ndarray]:
@@ -105,3 +145,16 @@ class ReflectionBlocks:
         if not lead:  # one table: one sparse product per block
             return [(fold @ flat[0]).reshape(m, m) for fold, m in self._parts]
         return [np.stack([fold @ row for row in flat]).reshape(lead + (m, m)) for fold, m in self._parts]
+
+
+def patch_blocks(tables: np.ndarray, shape) -> "ReflectionBlocks | None":
+    """The finest :class:`ReflectionBlocks` a stack of (..., 2 nx - 1, 2 ny - 1) offset tables allows (swap too
+    when the patch is square and the tables symmetric under dx <-> dy), or None if they are not even."""
+    if not is_reflection_even(tables):
+        return None
+    return ReflectionBlocks(shape, swap=shape[0] == shape[1] and is_swap_symmetric(tables))
+
+
+def fits(blocks: "ReflectionBlocks", tables: np.ndarray) -> bool:
+    """Whether ``tables`` have the symmetry ``blocks`` were made for."""
+    return is_reflection_even(tables) and (not blocks.swap or is_swap_symmetric(tables))
