@@ -19,6 +19,11 @@ theta = pi for uniform springs). :func:`patch_margin` evaluates this densely and
    ladder cannot rule out a value below the smallest k_safe found so far (branch and bound): the minimum,
    k_crit, is exact; elsewhere ``k_safe`` holds the certified lower bound.
 
+Every factorisation and eigen-solve runs on the exact diagonal blocks of the patch matrix under the patch's
+reflections (and the x <-> y swap of a square patch, :mod:`tyreroad.symmetry`): the same spectrum at a
+sixteenth of the cost or less. Where the correction's design already solved this kernel's lambda_min on a
+phase grid (``support``, the same patch), steps 2-3 start from those eigenvalues instead of Cholesky ladders.
+
 The result ``critical_stiffness`` = min over theta of k_safe: no spring set with every k_e below it puts
 a root of the march on |z| = 1 (inf: every spring set, hard contact included). Patches above
 :data:`tyreroad.solver.FFT_THRESHOLD` elements keep the circulant bound alone (conservative: its

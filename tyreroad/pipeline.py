@@ -197,7 +197,7 @@ def run_greens(
         # the targets in turn on one eigen-solve pass; checked on the margin's whole theta grid (n_dense), so a
         # target met is met by the margin below, which reuses the design's eigenvalues (same patch)
         ds, correction = correct_greens(ds, shape=design, n_theta=256, n_phi=8, k_target=PASSIVE_TARGETS,
-                                        n_dense=PASSIVE_DENSE, max_rounds=24)
+                                        n_dense=PASSIVE_DENSE, max_rounds=30)
         for note in correction.notes:  # a target not reachable within the fidelity budget (low-loss variants)
             logger.warning("greens %s: %s", material_name, note)
         logger.info("greens %s: %s", material_name, correction.summary())
