@@ -282,3 +282,31 @@ def test_design_on_blocks_equals_the_design_on_the_patch_matrices(fold_kernel):
     # the LP's optimum is not unique (degenerate vertices: round-off picks among equal-cost taps), its value is
     assert fast.sum_abs == pytest.approx(slow.sum_abs, rel=1e-6)
     assert fast.at_nyquist == pytest.approx(slow.at_nyquist, rel=1e-3)
+
+
+def test_margin_from_the_designs_eigenvalues_equals_the_margin_from_its_own(tread, caplog):
+    """The greens stage's margin reuses the design's lambda_min table (support + Re(e^{i phi} Delta)): on a
+    6 x 6 design checked on the margin's grid, the same k_crit (1e-9) at the same theta as patch_margin without
+    it (and the support used), the design's spring met, and a support that does not belong to the kernel
+    (scaled by 2) refused."""
+    from tyreroad import construction
+
+    base = greens_dataset(tread, SHAPE, 1e-3, FS, 256, 4096, construction="passive")
+    ds, corr = construction.correct_greens(base, shape=SHAPE, n_theta=64, n_phi=8, k_target=1.2e5, n_dense=1024,
+                                           max_rounds=30)
+    kernel = LayerKernel.from_greens(ds, "dynamic")
+    support = corr.margin_support()
+    with caplog.at_level(logging.INFO, logger="tyreroad.margin"):
+        reused = patch_margin(kernel, SHAPE, support=support)
+    used = [r.getMessage() for r in caplog.records if "from the design's eigenvalues" in r.getMessage()]
+    assert used and " 0 theta from the design's eigenvalues" not in used[-1]
+    own = patch_margin(kernel, SHAPE)
+    assert math.isfinite(own.k_crit)
+    assert reused.k_crit == pytest.approx(own.k_crit, rel=1e-9) and reused.theta_k == own.theta_k
+    if corr.slack >= 0:
+        assert reused.k_crit >= corr.k_target
+    caplog.clear()
+    with caplog.at_level(logging.WARNING, logger="tyreroad.margin"):
+        wrong = patch_margin(kernel, SHAPE, support=(support[0], support[1], 2.0 * support[2]))
+    assert "differs from the kernel's own matrices" in caplog.text
+    assert wrong.k_crit == pytest.approx(own.k_crit, rel=1e-9)
