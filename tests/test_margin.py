@@ -181,3 +181,132 @@ def test_default_kernel_holds_the_stiffest_default_spring_and_refuses_stiffer(pa
     stiff, force = linear_tables(36, 1.0e6)
     with pytest.raises(ValueError, match=r"1e\+06 N/m.*'passive' kernel, k_crit = .*greens.construction"):
         solve_path(z1, stiff, force, 1e-6, kernel, d[:20], SolverSettings(method="dense"))
+
+
+# ----------------------------------------------------------------------------------------------
+# the reflection blocks (tyreroad.symmetry): the same spectrum, margin and design as the whole patch matrices
+
+
+def _even_table(rng, nx, ny):
+    t = rng.normal(size=(nx, ny)) + 1j * rng.normal(size=(nx, ny))
+    dx, dy = np.abs(np.arange(-(nx - 1), nx)), np.abs(np.arange(-(ny - 1), ny))
+    return t[dx[:, None], dy[None, :]]
+
+
+@pytest.mark.parametrize("shape", [(6, 6), (7, 5), (1, 4), (3, 1), (9, 8)])
+def test_reflection_blocks_carry_the_whole_spectrum(shape):
+    """For an offset table even in dx and dy, the blocks' spectra together are the patch matrix's, at every
+    phase (odd and even sizes, a one-element axis), and the blocks' sizes add up to the patch."""
+    from tyreroad.symmetry import ReflectionBlocks, is_reflection_even
+
+    table = _even_table(np.random.default_rng(3), *shape)
+    assert is_reflection_even(table)
+    blocks = ReflectionBlocks(shape)
+    assert sum(blocks.sizes) == shape[0] * shape[1]
+    a = offset_matrix(table)
+    re, im = blocks.blocks(table.real), blocks.blocks(table.imag)
+    for phi in (0.0, 0.7, -np.pi / 2):
+        whole = np.linalg.eigvalsh(math.cos(phi) * a.real - math.sin(phi) * a.imag)
+        parts = np.sort(np.concatenate([np.linalg.eigvalsh(math.cos(phi) * b - math.sin(phi) * c)
+                                        for b, c in zip(re, im)]))
+        np.testing.assert_allclose(parts, whole, rtol=0, atol=1e-12 * np.abs(whole).max())
+
+
+@pytest.mark.parametrize("n", [2, 5, 6])
+def test_swap_blocks_hold_the_smallest_eigenvalue(n):
+    """A square patch whose table is also symmetric under dx <-> dy: the swap-split blocks (the odd-even one
+    left out, its spectrum is the even-odd one's) hold only eigenvalues of the patch matrix, among them the
+    smallest, at every phase."""
+    from tyreroad.symmetry import is_swap_symmetric, patch_blocks
+
+    table = _even_table(np.random.default_rng(5), n, n)
+    table = table + table.T
+    blocks = patch_blocks(table, (n, n))
+    assert blocks.swap and is_swap_symmetric(table)
+    a = offset_matrix(table)
+    re, im = blocks.blocks(table.real), blocks.blocks(table.imag)
+    for phi in (0.0, 0.4, np.pi / 2):
+        whole = np.linalg.eigvalsh(math.cos(phi) * a.real - math.sin(phi) * a.imag)
+        parts = np.concatenate([np.linalg.eigvalsh(math.cos(phi) * b - math.sin(phi) * c) for b, c in zip(re, im)])
+        tol = 1e-12 * np.abs(whole).max()
+        assert abs(parts.min() - whole[0]) <= tol
+        assert np.abs(parts[:, None] - whole[None, :]).min(axis=1).max() <= tol
+
+
+@pytest.fixture(scope="module")
+def odd_kernel(tread):
+    """The 7 x 5 fold kernel (stable at fs/2 on this patch) with an excitation-element FIR that makes it fail
+    over a band inside the circle (0.54-0.97 pi): Delta(theta) = g_00[0] (e^{-2 i theta} - 1) (real part <= 0)."""
+    fold = LayerKernel.from_greens(greens_dataset(tread, (7, 5), 1e-3, FS, 256, 4096, construction="fold"), "dynamic")
+    lags = fold.lags.copy()
+    cx, cy = (lags.shape[0] - 1) // 2, (lags.shape[1] - 1) // 2
+    g0 = lags[cx, cy, 0]
+    lags[cx, cy, 0] -= g0
+    lags[cx, cy, 2] += g0
+    return LayerKernel(lags, False, FS, fold.memory, 1e-3, name="fold 7 x 5, perturbed")
+
+
+@pytest.mark.parametrize("which", ["fold-6x6", "fold-7x5", "passive-6x6"])
+def test_block_margin_equals_the_whole_matrix_margin(which, fold_kernel, odd_kernel, passive_greens, tread):
+    """patch_margin on the reflection blocks against the same algorithm on the whole patch matrices (the
+    reference): the same k_crit (1e-9), at the same theta, failing on the same grid points; the passive
+    kernel fails in a band inside the circle, not only at fs/2."""
+    kernel, shape = {"fold-6x6": (fold_kernel, SHAPE), "fold-7x5": (odd_kernel, (7, 5)),
+                     "passive-6x6": (LayerKernel.from_greens(passive_greens, "dynamic"), SHAPE)}[which]
+    fast = patch_margin(kernel, shape, n_theta=513)
+    slow = patch_margin(kernel, shape, n_theta=513, symmetry=False)
+    assert fast.method == slow.method == "patch"
+    assert math.isfinite(slow.k_crit)
+    assert fast.k_crit == pytest.approx(slow.k_crit, rel=1e-9)
+    assert fast.theta_k == slow.theta_k
+    assert np.array_equal(np.isfinite(fast.k_safe), np.isfinite(slow.k_safe))
+
+
+def test_design_on_blocks_equals_the_design_on_the_patch_matrices(fold_kernel):
+    """design_correction's eigen-solves on the blocks: the same lambda_min table (to round-off) and the same
+    LP outcome (slack, grid min p, sum |c|, Delta(-1)) as on the whole 6 x 6 matrices."""
+    from tyreroad import construction
+
+    mem = fold_kernel.memory
+    args = (fold_kernel.lags, mem.residual_compliance, mem.weights, mem.decays)
+    theta, tables = construction.transfer_tables(*args, 64)
+    phi = np.linspace(-np.pi / 12, np.pi / 2, 8)
+    h_blocks = construction.patch_support(tables, SHAPE, phi)
+    h_whole = construction.patch_support(tables, SHAPE, phi, symmetry=False)
+    np.testing.assert_allclose(h_blocks, h_whole, rtol=0, atol=1e-12 * np.abs(tables).max())
+    opts = dict(shape=SHAPE, sample_rate=FS, n_theta=64, n_phi=8, k_target=1.2e5)
+    fast = construction.design_correction(*args, **opts)
+    slow = construction.design_correction(*args, symmetry=False, **opts)
+    assert fast.slack == pytest.approx(slow.slack, rel=1e-6, abs=1e-12)
+    assert fast.min_p == pytest.approx(slow.min_p, rel=1e-6)
+    # the LP's optimum is not unique (degenerate vertices: round-off picks among equal-cost taps), its value is
+    assert fast.sum_abs == pytest.approx(slow.sum_abs, rel=1e-6)
+    assert fast.at_nyquist == pytest.approx(slow.at_nyquist, rel=1e-3)
+
+
+def test_margin_from_the_designs_eigenvalues_equals_the_margin_from_its_own(tread, caplog):
+    """The greens stage's margin reuses the design's lambda_min table (support + Re(e^{i phi} Delta)): on a
+    6 x 6 design checked on the margin's grid, the same k_crit (1e-9) at the same theta as patch_margin without
+    it (and the support used), the design's spring met, and a support that does not belong to the kernel
+    (scaled by 2) refused."""
+    from tyreroad import construction
+
+    base = greens_dataset(tread, SHAPE, 1e-3, FS, 256, 4096, construction="passive")
+    ds, corr = construction.correct_greens(base, shape=SHAPE, n_theta=64, n_phi=8, k_target=1.2e5, n_dense=1024,
+                                           max_rounds=30)
+    kernel = LayerKernel.from_greens(ds, "dynamic")
+    support = corr.margin_support()
+    with caplog.at_level(logging.INFO, logger="tyreroad.margin"):
+        reused = patch_margin(kernel, SHAPE, support=support)
+    used = [r.getMessage() for r in caplog.records if "from the design's eigenvalues" in r.getMessage()]
+    assert used and " 0 theta from the design's eigenvalues" not in used[-1]
+    own = patch_margin(kernel, SHAPE)
+    assert math.isfinite(own.k_crit)
+    assert reused.k_crit == pytest.approx(own.k_crit, rel=1e-9) and reused.theta_k == own.theta_k
+    if corr.slack >= 0:
+        assert reused.k_crit >= corr.k_target
+    caplog.clear()
+    with caplog.at_level(logging.WARNING, logger="tyreroad.margin"):
+        wrong = patch_margin(kernel, SHAPE, support=(support[0], support[1], 2.0 * support[2]))
+    assert "differs from the kernel's own matrices" in caplog.text
+    assert wrong.k_crit == pytest.approx(own.k_crit, rel=1e-9)

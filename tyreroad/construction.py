@@ -31,8 +31,11 @@ Construction
    of 18; but that base already misses the FRF by 1.5 % at near offsets (|G| >= 1 % |G_00|), so it is not
    the default.)
 
-Cost: the design needs lambda_min of the M x M patch matrices at ~560 theta x 16 phi (M = 400: 2.5-6 min on
-the shared 2 cores, i.e. far more than today's greens stage of 3-5 s). The correction is the same identity
+Cost: the design needs lambda_min of the M x M patch matrices on its theta x phi grid. They are solved on
+the exact reflection (and, square patch, x <-> y) blocks of the patch matrix (:mod:`tyreroad.symmetry`;
+20 x 20: blocks 55, 45, 100, 55, 45 instead of 400), and the greens stage checks every theta of the margin's
+grid above 5 kHz (``n_dense``: ~1064 theta x 8 phi), so that a target met on the grid is met by the margin,
+which then reuses these eigenvalues (:meth:`Correction.margin_support`). The correction is the same identity
 shift on every patch, so taps designed on a 20 x 20 patch may be applied to a larger one (measured tread,
 k(fs/2) of the 20 x 20 taps: 1.24e5 N/m on 20 x 20, 1.06e5 on 40 x 40; today's 2.37e4 / 2.29e4).
 
@@ -153,7 +156,7 @@ def symbol_support(tables: np.ndarray, n_phi: int = 361, pads=None):
     return phi, h
 
 
-def patch_support(tables: np.ndarray, shape, phi: np.ndarray) -> np.ndarray:
+def patch_support(tables: np.ndarray, shape, phi: np.ndarray, symmetry: bool = True) -> np.ndarray:
     """lambda_min Herm(e^{i phi} G_d) of the patch's M x M matrices (M = nx ny), per table and phi.
 
     Parameters
@@ -164,23 +167,34 @@ def patch_support(tables: np.ndarray, shape, phi: np.ndarray) -> np.ndarray:
         Patch (nx, ny) (the tables are cropped to it).
     phi : numpy.ndarray
         Angles [rad].
+    symmetry : bool
+        Solve on the four reflection blocks of the patch matrices (:mod:`tyreroad.symmetry`) when the tables
+        are even in dx and dy (the same eigenvalues); False: the patch matrices themselves (the reference).
 
     Returns
     -------
     numpy.ndarray (n, len(phi)) [m/N]
     """
     from .influence import offset_matrix
+    from .symmetry import patch_blocks
 
     nx, ny = shape
     cx, cy = (tables.shape[1] - 1) // 2, (tables.shape[2] - 1) // 2
     out = np.empty((tables.shape[0], len(phi)))
+    crop = tables[:, cx - (nx - 1): cx + nx, cy - (ny - 1): cy + ny]
+    # the four reflection blocks (tyreroad.symmetry) carry the patch matrix's spectrum exactly, at 1/16 of the work
+    blocks = patch_blocks(crop, shape) if symmetry else None
+    re_t, im_t = np.ascontiguousarray(crop.real), np.ascontiguousarray(crop.imag)
     for k in range(tables.shape[0]):
-        a = offset_matrix(tables[k, cx - (nx - 1): cx + nx, cy - (ny - 1): cy + ny])
-        b, c = a.real.copy(), a.imag.copy()
+        if blocks is not None:
+            bs, cs = blocks.blocks(re_t[k]), blocks.blocks(im_t[k])
+        else:
+            a = offset_matrix(crop[k])
+            bs, cs = [a.real.copy()], [a.imag.copy()]
         for j, f in enumerate(phi):
             # the smallest eigenvalue alone (LAPACK evr): 3x cheaper than the whole spectrum on 400 x 400
-            out[k, j] = scipy.linalg.eigh(math.cos(f) * b - math.sin(f) * c, eigvals_only=True,
-                                          subset_by_index=[0, 0], check_finite=False)[0]
+            out[k, j] = min(scipy.linalg.eigh(math.cos(f) * b - math.sin(f) * c, eigvals_only=True,
+                                              subset_by_index=[0, 0], check_finite=False)[0] for b, c in zip(bs, cs))
     return out
 
 
@@ -212,6 +226,12 @@ class Correction:
     band : float
         [Hz].
     notes : list of str
+    theta, phi, support : numpy.ndarray or None
+        The checked grid [rad] and lambda_min Herm(e^{i phi} G_d) of the *base* kernel there (n_theta, n_phi)
+        [m/N]: the corrected kernel's is support + Re(e^{i phi} Delta(theta)) exactly (Delta I on the patch),
+        which :func:`tyreroad.margin.patch_margin` reuses on the patch ``shape``.
+    shape : (int, int) or None
+        The patch designed on.
     """
 
     taps: np.ndarray
@@ -231,6 +251,18 @@ class Correction:
     seconds: float
     band: float
     notes: list = field(default_factory=list)
+    theta: np.ndarray | None = field(default=None, repr=False)
+    phi: np.ndarray | None = field(default=None, repr=False)
+    support: np.ndarray | None = field(default=None, repr=False)
+    shape: tuple | None = None
+
+    def margin_support(self):
+        """(theta [rad], phi [rad], lambda_min Herm(e^{i phi} G_d) [m/N]) of the *corrected* kernel on the checked
+        grid (:func:`tyreroad.margin.patch_margin`'s ``support``), or None without a stored support."""
+        if self.support is None:
+            return None
+        delta = _fir(self.taps.size, self.theta) @ self.taps
+        return self.theta, self.phi, self.support + (np.exp(1j * self.phi)[None, :] * delta[:, None]).real
 
     def summary(self) -> str:
         return (f"spring-safe correction: {self.taps.size} taps on the excitation element, sum|c| {self.sum_abs:.3g} m/N "
@@ -247,7 +279,8 @@ def _fir(n_taps: int, theta: np.ndarray) -> np.ndarray:
 def design_correction(lags: np.ndarray, tail_compliance=None, weights=(), decays=(), shape=None,
                       sample_rate: float = 51200.0, band: float = 5000.0, fidelity_budget: float = 4e-3,
                       k_target: float = DEFAULT_K_TARGET, margin: float = 3e-7, n_taps: int = 128,
-                      n_theta: int = 512, n_phi: int = 16, max_rounds: int = 12) -> Correction:
+                      n_theta: int = 512, n_phi: int = 16, max_rounds: int = 12, symmetry: bool = True,
+                      n_dense: int | None = None) -> Correction:
     """Design the spring-safe correction of a kernel's excitation element (see the module docstring).
 
     Parameters
@@ -264,8 +297,9 @@ def design_correction(lags: np.ndarray, tail_compliance=None, weights=(), decays
         Upper end of the faithful band [Hz].
     fidelity_budget : float
         Largest |Delta| / |G_d,00| allowed up to ``band`` [1], on top of the base kernel's own error.
-    k_target : float
-        Springs designed safe [N/m] (inf: p > 0, every spring).
+    k_target : float or sequence of float
+        Springs designed safe [N/m] (inf: p > 0, every spring); a sequence: tried in turn (one eigen-solve
+        pass for all) until the LP meets one on the checked grid, the last kept whatever it reaches.
     margin : float
         Slack asked beyond that [m/N] (the LP's t is capped there).
     n_taps : int
@@ -274,6 +308,13 @@ def design_correction(lags: np.ndarray, tail_compliance=None, weights=(), decays
         theta points above ``band`` (plus 48 in it) and phi points on [-pi/12, pi/2].
     max_rounds : int
         LP rounds (phi re-chosen between rounds).
+    symmetry : bool
+        Eigen-solve the reflection blocks of the patch matrices (:func:`patch_support`; the same values).
+    n_dense : int, optional
+        Also check every theta = pi k / n_dense above ``band`` (a divisor of 4096; 1024: the grid of
+        :func:`tyreroad.margin.patch_margin`): the LP starts on the coarse grid and adds every checked point
+        its solution violates (cutting planes), so that ``slack >= 0`` holds on the margin's whole grid, not
+        only at the coarse points (between them the dense margin found dips below k_target).
 
     Returns
     -------
@@ -285,19 +326,27 @@ def design_correction(lags: np.ndarray, tail_compliance=None, weights=(), decays
     n_taps = min(int(n_taps), lags.shape[2])
     if shape is None:
         shape = ((lags.shape[0] + 1) // 2, (lags.shape[1] + 1) // 2)
+    targets = [float(k) for k in np.atleast_1d(k_target)]
     cx, cy = (lags.shape[0] - 1) // 2, (lags.shape[1] - 1) // 2
     n_grid = 4096
     theta_all, tables = transfer_tables(lags, tail_compliance, weights, decays, n_grid)
     g00 = np.abs(tables[:, cx, cy])
     t_band = 2 * np.pi * band / sample_rate
-    sel = np.unique(np.round(np.r_[np.linspace(0.0, t_band, 48), np.linspace(t_band, np.pi, n_theta)]
-                             * n_grid / np.pi).astype(int))
+    coarse = np.unique(np.round(np.r_[np.linspace(0.0, t_band, 48), np.linspace(t_band, np.pi, n_theta)]
+                                * n_grid / np.pi).astype(int))
+    if n_dense:
+        if n_grid % int(n_dense):
+            raise ValueError(f"n_dense must divide {n_grid}, got {n_dense}")
+        step = n_grid // int(n_dense)
+        dense = np.arange(0, n_grid + 1, step)
+        sel = np.union1d(coarse, dense[theta_all[dense] >= t_band])
+    else:
+        sel = coarse
     theta = theta_all[sel]
+    start_rows = np.flatnonzero(np.isin(sel, coarse))  # the LP starts on the coarse grid, adds violated points
     phi = np.linspace(-np.pi / 12, np.pi / 2, n_phi)
     j0 = int(np.argmin(np.abs(phi)))
-    h = patch_support(tables[sel], shape, phi)
-    allowance = np.cos(phi)[None, :] / k_target if math.isfinite(k_target) else 0.0
-    hk = h + allowance
+    h = patch_support(tables[sel], shape, phi, symmetry=symmetry)
     fid = np.flatnonzero(theta_all <= t_band * 1.02)[::4]
     e = _fir(n_taps, theta)
     ef = _fir(n_taps, theta_all[fid])
@@ -310,7 +359,6 @@ def design_correction(lags: np.ndarray, tail_compliance=None, weights=(), decays
         return v[np.arange(v.shape[0]), j], j
 
     base_p, _ = best(h, np.zeros(theta.size))
-    _, jsel = best(hk, np.zeros(theta.size))
     scale = max(margin, 1e-300)
     radius = fidelity_budget * g00[fid] * math.cos(math.pi / 8) / scale
     eye, zero = np.eye(n_taps), np.zeros((n_taps, 1))
@@ -321,30 +369,40 @@ def design_correction(lags: np.ndarray, tail_compliance=None, weights=(), decays
     cost = np.r_[np.zeros(n_taps), 1e-3 * np.ones(n_taps), -1.0]
     a_eq = np.r_[np.ones(n_taps), np.zeros(n_taps + 1)][None, :]
     bounds = [(None, None)] * n_taps + [(0, None)] * n_taps + [(None, 1.0)]
-    found, rounds, notes = None, 0, []
-    for _ in range(max_rounds):
-        stab = (np.exp(1j * phi[jsel])[:, None] * e).real
-        rows = [np.hstack([-stab, np.zeros((theta.size, n_taps)), np.ones((theta.size, 1))])] + rows_fix
-        rhs = [hk[np.arange(theta.size), jsel] / scale] + rhs_fix
-        res = scipy.optimize.linprog(cost, A_ub=np.vstack(rows), b_ub=np.concatenate(rhs), A_eq=a_eq, b_eq=[0.0],
-                                     bounds=bounds, method="highs")
-        rounds += 1
-        if res.status != 0:
-            notes.append(f"LP round {rounds}: {res.message}")
+    rounds, notes = 0, []
+    for target in targets:
+        allowance = np.cos(phi)[None, :] / target if math.isfinite(target) else 0.0
+        hk = h + allowance
+        _, jsel = best(hk, np.zeros(theta.size))
+        rows_on = start_rows.copy()
+        found = None
+        for _ in range(max_rounds):
+            stab = (np.exp(1j * phi[jsel[rows_on]])[:, None] * e[rows_on]).real
+            rows = [np.hstack([-stab, np.zeros((rows_on.size, n_taps)), np.ones((rows_on.size, 1))])] + rows_fix
+            rhs = [hk[rows_on, jsel[rows_on]] / scale] + rhs_fix
+            res = scipy.optimize.linprog(cost, A_ub=np.vstack(rows), b_ub=np.concatenate(rhs), A_eq=a_eq,
+                                         b_eq=[0.0], bounds=bounds, method="highs")
+            rounds += 1
+            if res.status != 0:
+                notes.append(f"LP round {rounds}: {res.message}")
+                break
+            taps = res.x[:n_taps] * scale
+            slack, jnew = best(hk, e @ taps)
+            if found is None or slack.min() > found[0]:
+                found = (float(slack.min()), taps)
+            # cutting planes: every checked point the solution violates joins the LP (at its best phase)
+            violated = np.setdiff1d(np.flatnonzero(slack < 0), rows_on)
+            if violated.size == 0 and np.array_equal(jnew[rows_on], jsel[rows_on]):
+                break
+            rows_on = np.union1d(rows_on, violated)
+            jsel = jnew
+        if found is None:
+            found = (float(best(hk, np.zeros(theta.size))[0].min()), np.zeros(n_taps))
+            notes.append("no correction found: the base kernel is returned")
+        if found[0] >= 0:
             break
-        taps = res.x[:n_taps] * scale
-        slack, jnew = best(hk, e @ taps)
-        if found is None or slack.min() > found[0]:
-            found = (float(slack.min()), taps)
-        if np.array_equal(jnew, jsel):
-            break
-        jsel = jnew
-    if found is None:
-        found = (float(best(hk, np.zeros(theta.size))[0].min()), np.zeros(n_taps))
-        notes.append("no correction found: the base kernel is returned")
+        notes.append(f"k_target {target:.3g} N/m not met on the grid (slack {found[0]:.3g} m/N)")
     slack, taps = found
-    if slack < 0:
-        notes.append(f"k_target {k_target:.3g} N/m not met on the grid (slack {slack:.3g} m/N)")
     delta_all = _fir(n_taps, theta_all) @ taps
     p, _ = best(h, e @ taps)
     i = int(np.argmin(p))
@@ -352,9 +410,10 @@ def design_correction(lags: np.ndarray, tail_compliance=None, weights=(), decays
     in_band = theta_all <= t_band
     corr = Correction(
         taps=taps, sum_abs=float(np.abs(taps).sum()), dc=float(taps.sum()), in_band=float(ratio[in_band].max()),
-        above_band=float(ratio[~in_band].max()), at_nyquist=float(delta_all[-1].real), k_target=float(k_target),
+        above_band=float(ratio[~in_band].max()), at_nyquist=float(delta_all[-1].real), k_target=float(target),
         slack=slack, base_min_p=float(base_p.min()), min_p=float(p[i]), theta_min=float(theta[i]), lp_rounds=rounds,
         n_theta=int(theta.size), n_phi=int(n_phi), seconds=time.perf_counter() - t0, band=float(band), notes=notes,
+        theta=theta, phi=phi, support=h, shape=tuple(int(v) for v in shape),
     )
     logger.info("%s", corr.summary())
     for note in notes:

@@ -19,6 +19,11 @@ theta = pi for uniform springs). :func:`patch_margin` evaluates this densely and
    ladder cannot rule out a value below the smallest k_safe found so far (branch and bound): the minimum,
    k_crit, is exact; elsewhere ``k_safe`` holds the certified lower bound.
 
+Every factorisation and eigen-solve runs on the exact diagonal blocks of the patch matrix under the patch's
+reflections (and the x <-> y swap of a square patch, :mod:`tyreroad.symmetry`): the same spectrum at a
+sixteenth of the cost or less. Where the correction's design already solved this kernel's lambda_min on a
+phase grid (``support``, the same patch), steps 2-3 start from those eigenvalues instead of Cholesky ladders.
+
 The result ``critical_stiffness`` = min over theta of k_safe: no spring set with every k_e below it puts
 a root of the march on |z| = 1 (inf: every spring set, hard contact included). Patches above
 :data:`tyreroad.solver.FFT_THRESHOLD` elements keep the circulant bound alone (conservative: its
@@ -38,6 +43,7 @@ from .influence import offset_matrix_index
 from .kernel import LayerKernel
 from .solver import FFT_THRESHOLD
 from .stability import circulant_margin, mask_bands
+from .symmetry import fits, patch_blocks
 
 logger = logging.getLogger(__name__)
 
@@ -134,16 +140,44 @@ def _chol_ok(matrix: np.ndarray) -> bool:
     return info == 0
 
 
+def _herm1(b: np.ndarray, c: np.ndarray, phi: float) -> np.ndarray:
+    """Herm(e^{i phi} G_d) = cos phi Re G_d - sin phi Im G_d of one block (a new array)."""
+    if phi == 0.0:
+        return b.copy()
+    cp, sp = math.cos(phi), math.sin(phi)
+    if abs(cp) < 1e-15:
+        return c * -sp
+    m = b * cp
+    m -= sp * c
+    return m
+
+
+def _herm(b, c, phi: float) -> list[np.ndarray]:
+    """:func:`_herm1` of every block."""
+    return [_herm1(bb, cc, phi) for bb, cc in zip(b, c)]
+
+
+def _shifted_pd(b, c, phi: float, shift: float) -> bool:
+    """Herm(e^{i phi} G_d) + shift I positive definite (every block), by Cholesky."""
+    for bb, cc in zip(b, c):
+        m = _herm1(bb, cc, phi)
+        m.flat[:: m.shape[0] + 1] += shift
+        if not _chol_ok(m):
+            return False
+    return True
+
+
 def _lambda_min(matrix: np.ndarray) -> float:
     return float(scipy.linalg.eigh(matrix, eigvals_only=True, subset_by_index=[0, 0], check_finite=False)[0])
 
 
-def _full(b: np.ndarray, c: np.ndarray, scale: float, n_phi: int = 11, with_phi: bool = False):
-    """(p, k_safe) at one theta from Re G_d = b, Im G_d = c: a phase grid, then bounded Brent around the best."""
+def _full(b, c, scale: float, n_phi: int = 11, with_phi: bool = False):
+    """(p, k_safe) at one theta from the blocks of Re G_d = b, Im G_d = c (lists; one block: the patch
+    matrix itself): a phase grid, then bounded Brent around the best."""
     import scipy.optimize
 
     def f(phi):
-        return _lambda_min(math.cos(phi) * b - math.sin(phi) * c)
+        return min(_lambda_min(m) for m in _herm(b, c, phi))
 
     phis = np.linspace(-np.pi / 2, np.pi / 2, n_phi)
     values = {float(phi): f(phi) for phi in phis}
@@ -166,23 +200,21 @@ def _full(b: np.ndarray, c: np.ndarray, scale: float, n_phi: int = 11, with_phi:
 LADDER = 100.0 * 1.15 ** np.arange(165)
 
 
-def _ladder(b: np.ndarray, c: np.ndarray, phi: float, tol: float) -> float:
+def _ladder(b, c, phi: float, tol: float) -> float:
     """The largest K of :data:`LADDER` with Herm(e^{i phi} G_d) + (cos phi / K - tol) I positive definite (0 if
     none): then no spring set with every k_e <= K puts a root on |z| = 1 here (a lower bound of k_safe)."""
     lo, hi = -1, LADDER.size  # LADDER[lo] certified (or none), LADDER[hi] not (or beyond)
-    base = math.cos(phi) * b - math.sin(phi) * c
     while hi - lo > 1:
         mid = (lo + hi) // 2
-        m = base.copy()
-        m[np.diag_indices_from(m)] += math.cos(phi) / LADDER[mid] - tol
-        if _chol_ok(m):
+        if _shifted_pd(b, c, phi, math.cos(phi) / LADDER[mid] - tol):
             lo = mid
         else:
             hi = mid
     return float(LADDER[lo]) if lo >= 0 else 0.0
 
 
-def patch_margin(kernel: LayerKernel, shape, n_theta: int = 1025, chunk: int = 64) -> PatchMargin:
+def patch_margin(kernel: LayerKernel, shape, n_theta: int = 1025, chunk: int = 64, symmetry: bool = True,
+                 max_dense: int = FFT_THRESHOLD, support=None) -> PatchMargin:
     """The stability margin of a dynamic kernel over an (nx, ny) patch, densely on theta in [0, pi].
 
     Parameters
@@ -196,6 +228,19 @@ def patch_margin(kernel: LayerKernel, shape, n_theta: int = 1025, chunk: int = 6
         between two points; the circulant bound runs on the same grid).
     chunk : int
         theta per transfer-function evaluation.
+    symmetry : bool
+        Factor and eigen-solve the reflection blocks of the patch matrices (:mod:`tyreroad.symmetry`: the
+        same spectrum, 1/16 of the work; on a square patch also split by the x <-> y swap) when the kernel's
+        tables are even in dx and dy; False: the patch matrices themselves (the tests' reference).
+    max_dense : int
+        Largest matrix (a block, or the patch matrix without ``symmetry``) factored densely; a patch whose
+        largest one is bigger keeps the circulant bound alone.
+    support : (theta, phi, h), optional
+        lambda_min Herm(e^{i phi} G_d) of this kernel on this patch already computed (the correction's design,
+        :meth:`tyreroad.construction.Correction.margin_support`: theta (n,), phi (m,), h (n, m) [m/N]). At
+        grid points it covers, p > 0 is certified where max_phi h > tol and otherwise k_safe >=
+        max_phi cos phi / (tol - h) replaces the Cholesky ladder (the same certificate from the eigenvalues);
+        it is spot-checked against this kernel's own matrices first and ignored if it does not match.
 
     Returns
     -------
@@ -207,30 +252,60 @@ def patch_margin(kernel: LayerKernel, shape, n_theta: int = 1025, chunk: int = 6
     theta = bound.theta
     k_safe = bound.k_bound.copy()
     todo = np.flatnonzero(~(bound.p_bound > 0))
-    if nx * ny > FFT_THRESHOLD:
+    fs = kernel.sample_rate
+    blocks = None
+    if symmetry and todo.size:
+        probe = kernel.own_frequency_response(theta[todo[:1]] * fs / (2 * np.pi), shape)
+        lag_blocks = patch_blocks(np.moveaxis(kernel.table(shape), -1, 0), shape)
+        if lag_blocks is not None and fits(lag_blocks, probe):
+            blocks = lag_blocks
+    largest = max(blocks.sizes) if blocks is not None else nx * ny
+    if largest > max_dense:
         out = PatchMargin(theta, bound.p_bound, k_safe, "circulant", seconds=time.perf_counter() - t0,
                           name=kernel.name)
         logger.info("stability margin %s", out.describe())
         return out
-    ix, iy = offset_matrix_index(shape)
-    certified = full = 0
+    if blocks is None:
+        ix, iy = offset_matrix_index(shape)
+    known = {}
+    if support is not None and todo.size:
+        known = _support_rows(kernel, shape, theta, todo, support, blocks)
+    certified = full = reused = 0
     rung, pending = {}, {}
     ladder_phi = math.pi / 4
     phi = math.pi / 2  # a lossy layer's compliance is certified by its dissipation, phi = +pi/2
-    fs = kernel.sample_rate
     for start in range(0, todo.size, chunk):
         idx = todo[start:start + chunk]
         tables = kernel.own_frequency_response(theta[idx] * fs / (2 * np.pi), shape)
+        use_blocks = blocks is not None and fits(blocks, tables)
+        if use_blocks:
+            re_tables, im_tables = np.ascontiguousarray(tables.real), np.ascontiguousarray(tables.imag)
+        elif blocks is not None:  # not even after all (a kernel the probe did not show): the patch matrices
+            logger.warning("stability margin %s: transfer tables not even in dx, dy; whole patch matrices",
+                           kernel.name)
+            ix, iy = offset_matrix_index(shape)
         for j, i in enumerate(idx):
-            a = tables[j][ix, iy]
-            b, c = a.real, a.imag
-            scale = max(float(np.abs(b).max()), float(np.abs(c).max()))
+            # the largest |entry| of Re / Im G_d: every offset of the cropped table is an entry of the patch matrix
+            scale = max(float(np.abs(tables[j].real).max()), float(np.abs(tables[j].imag).max()))
             tol = MARGIN_TOLERANCE * scale
+            if i in known:  # lambda_min on a phase grid already known: certified, or a lower bound of k_safe
+                reused += 1
+                lb = _support_bound(known[i], tol)
+                if lb == math.inf:
+                    k_safe[i] = math.inf
+                    certified += 1
+                else:
+                    rung[i] = lb
+                    pending[i] = (tables[j].copy(), use_blocks, scale)
+                continue
+            if use_blocks:
+                b, c = blocks.blocks(re_tables[j]), blocks.blocks(im_tables[j])
+            else:
+                a = tables[j][ix, iy]
+                b, c = [a.real.copy()], [a.imag.copy()]
             ok = False
             for trial in dict.fromkeys((phi, math.pi / 2, -math.pi / 2, 0.0)):
-                m = math.cos(trial) * b - math.sin(trial) * c
-                m[np.diag_indices_from(m)] -= tol
-                if _chol_ok(m):
+                if _shifted_pd(b, c, trial, -tol):
                     phi, ok = trial, True
                     break
             if ok:
@@ -240,17 +315,82 @@ def patch_margin(kernel: LayerKernel, shape, n_theta: int = 1025, chunk: int = 6
                 # p <= 0 here: certify k_safe >= K on a ladder (Re G_d + I / K > 0 at phi = 0), bisected
                 rung[i] = max(_ladder(b, c, trial, tol) for trial in dict.fromkeys((ladder_phi, 0.0)))
                 pending[i] = (b, c, scale)
-    # full solves only where the ladder cannot exclude a spring below the smallest one found (branch and bound)
+    for i, item in pending.items():  # the reused points' matrices, for the branch and bound below
+        if len(item) == 3 and isinstance(item[1], bool):
+            table, as_blocks, scale = item
+            if as_blocks:
+                pending[i] = (blocks.blocks(np.ascontiguousarray(table.real)),
+                              blocks.blocks(np.ascontiguousarray(table.imag)), scale)
+            else:
+                a = table[offset_matrix_index(shape)]
+                pending[i] = ([a.real.copy()], [a.imag.copy()], scale)
+    # full solves only where the ladder cannot exclude a spring below the smallest one found (branch and bound);
+    # before one, a Cholesky at the smallest k_safe found (at the phases of the last full solve and 0) may
+    # already certify k_safe >= it there
     best = math.inf
+    best_phi = 0.0
+    screened = 0
     for i in sorted(pending, key=lambda j: rung[j]):
         if rung[i] >= best:
             k_safe[i] = rung[i]  # a certified lower bound, not smaller than k_crit
             continue
         b, c, scale = pending[i]
+        tol = MARGIN_TOLERANCE * scale
+        if math.isfinite(best) and any(_shifted_pd(b, c, trial, math.cos(trial) / best - tol)
+                                       for trial in dict.fromkeys((best_phi, ladder_phi, 0.0))):
+            # certified: k_safe > best here (a strict bound: the Cholesky holds with tol to spare), not k_crit
+            k_safe[i] = np.nextafter(best, math.inf)
+            screened += 1
+            continue
         _, k_safe[i], ladder_phi = _full(b, c, scale, with_phi=True)
-        best = min(best, k_safe[i])
+        if k_safe[i] < best:
+            best, best_phi = k_safe[i], ladder_phi
         full += 1
     out = PatchMargin(theta, bound.p_bound, k_safe, "patch", certified, full, time.perf_counter() - t0, kernel.name)
-    logger.info("stability margin %s: %d theta proven by the circulant bound, %d certified on the patch, %d in full",
-                out.describe(), theta.size - todo.size, certified, full)
+    logger.info("stability margin %s: %d theta proven by the circulant bound, %d certified on the patch, %d "
+                "certified at k_crit, %d in full (%s; %d theta from the design's eigenvalues)", out.describe(),
+                theta.size - todo.size, certified, screened, full,
+                f"reflection blocks {blocks.sizes}" if blocks is not None else "whole patch matrices", reused)
     return out
+
+
+def _support_bound(h_row: tuple, tol: float) -> float:
+    """inf where some phase certifies p > 0 (lambda_min > tol), else the largest cos phi / (tol - lambda_min)
+    over the phases with cos phi > 0 (0 if none): a certified lower bound of k_safe."""
+    phis, values = h_row
+    if float(np.max(values)) > tol:
+        return math.inf
+    cos = np.cos(phis)
+    ok = cos > 1e-12
+    return float(np.max(cos[ok] / (tol - values[ok]))) if ok.any() else 0.0
+
+
+def _support_rows(kernel, shape, theta, todo, support, blocks, checks: int = 3) -> dict:
+    """{grid index: (phi, lambda_min)} of the support's rows on the margin's theta grid (matched to 1e-12 rad),
+    after checking ``checks`` of them against eigen-solves of this kernel's own matrices ({} if one differs by
+    more than 1e-3 MARGIN_TOLERANCE of the matrix scale: the certificates keep MARGIN_TOLERANCE in hand)."""
+    s_theta, s_phi, s_h = (np.asarray(v, dtype=float) for v in support)
+    pos = np.clip(np.searchsorted(s_theta, theta[todo]), 0, s_theta.size - 1)
+    prev = np.clip(pos - 1, 0, s_theta.size - 1)
+    pos = np.where(np.abs(s_theta[prev] - theta[todo]) < np.abs(s_theta[pos] - theta[todo]), prev, pos)
+    hit = np.abs(s_theta[pos] - theta[todo]) <= 1e-12
+    rows = {int(i): int(r) for i, r, h in zip(todo, pos, hit) if h}
+    if not rows:
+        return {}
+    sample = sorted(rows)[:: max(1, len(rows) // checks)][:checks]
+    tables = kernel.own_frequency_response(theta[sample] * kernel.sample_rate / (2 * np.pi), shape)
+    for t, i in zip(tables, sample):
+        scale = max(float(np.abs(t.real).max()), float(np.abs(t.imag).max()))
+        if blocks is not None:
+            b, c = blocks.blocks(np.ascontiguousarray(t.real)), blocks.blocks(np.ascontiguousarray(t.imag))
+        else:
+            a = t[offset_matrix_index(shape)]
+            b, c = [a.real.copy()], [a.imag.copy()]
+        for j in (0, s_phi.size - 1):
+            own = min(_lambda_min(m) for m in _herm(b, c, float(s_phi[j])))
+            if abs(own - s_h[rows[i], j]) > 1e-3 * MARGIN_TOLERANCE * scale:  # well inside the certificates' tol
+                logger.warning("stability margin %s: the given support differs from the kernel's own matrices at "
+                               "theta = %.4f pi (%.3e against %.3e m/N): not used", kernel.name, theta[i] / np.pi,
+                               s_h[rows[i], j], own)
+                return {}
+    return {i: (s_phi, s_h[r]) for i, r in rows.items()}
