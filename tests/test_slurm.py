@@ -85,8 +85,9 @@ def test_profile_plans_the_study(tmp_path):
     totals = [line.split() for line in out.splitlines() if line.startswith("total")]
     # 5 materials x (3 + 1) runs, 5 materials x 2 cycle runs, 5 stiffness spectra + 20 other jobs; claim 6
     # (issue 24): 8 more materials x (greens, springs, one dynamic run) and the claim6 job; the seed's kernel
-    # construction beside the default (issue 23): 5 greens, 15 dynamic runs and their study
-    assert totals and int(totals[0][1]) == 55 + 8 * 3 + 1 + 5 + 15 + 1, out[-3000:]
+    # construction beside the default (issue 23): 5 greens, 15 dynamic runs and their study; every material's
+    # K* in one file (stiffness_combined)
+    assert totals and int(totals[0][1]) == 55 + 8 * 3 + 1 + 5 + 15 + 1 + 1, out[-3000:]
 
 
 def test_profile_requests_follow_the_rules_and_the_site(tmp_path):
@@ -235,8 +236,9 @@ def _check_study_through_slurm(slurm_cluster, tmp_path):
     results = "results-test"  # results_dir of config/test.yaml
     files = _nc_files(local / results)
     assert files == _nc_files(cluster / results)
-    # + study.nc, loading.nc, claim6.nc and the seed construction's study.nc, made on the host
-    assert len(files) == sum(expected_jobs.values()) + 4
+    # + study.nc, loading.nc, claim6.nc, the seed construction's study.nc and the combined K*
+    # (stiffness_spectrum.nc), made on the host
+    assert len(files) == sum(expected_jobs.values()) + 5
     for name in files:
         with xr.open_dataset(local / results / name) as a, xr.open_dataset(cluster / results / name) as b:
             a.load()
