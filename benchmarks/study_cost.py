@@ -67,8 +67,10 @@ def main(argv=None) -> None:
     ap.add_argument("--config", default="config/config.yaml")
     ap.add_argument("--material", default="tread")
     ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--exclude", nargs="*", default=["rolling", "sensitivity"],
+                    help="benchmark folders of named targets outside the default study")
     args = ap.parse_args(argv)
-    by_rule = job_times(Path(args.results))
+    by_rule = {rule: jobs for rule, jobs in job_times(Path(args.results)).items() if rule not in args.exclude}
     total_wall = sum(w for jobs in by_rule.values() for w, _ in jobs)
     total_cpu = sum(c for jobs in by_rule.values() for _, c in jobs)
     print(f"{args.results}: {sum(len(j) for j in by_rule.values())} jobs with benchmark files")
@@ -78,7 +80,7 @@ def main(argv=None) -> None:
     print(f"{'total':28s} {'':5s} {total_wall:9.1f} {total_cpu:9.1f}")
     config = yaml.safe_load(Path(args.config).read_text())
     fold = fold_greens_seconds(config, args.material, args.repeats)
-    greens_jobs = [j for rule in ("greens", "construction_greens") for j in by_rule.get(rule, [])]
+    greens_jobs = by_rule.get("greens", [])  # the seed construction's greens (constructions/) has no correction
     greens_wall = sum(w for w, _ in greens_jobs)
     with_fold = total_wall - greens_wall + fold * len(greens_jobs)
     print(f"fold greens stage ({args.material}, median of {args.repeats}): {fold:.1f} s; "
