@@ -28,7 +28,6 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 import yaml
-from scipy.optimize import nnls
 
 from .material import (
     expand_temperatures,
@@ -36,6 +35,8 @@ from .material import (
     material_from_config,
     path_safe,
     read_dma_table,
+    relaxation_time_grid,
+    scaled_nnls,
     temperature_variant_name,
 )
 
@@ -77,17 +78,10 @@ def kramers_kronig_storage(frequency, storage_modulus, loss_factor, terms_per_de
     f = np.asarray(frequency, dtype=float)
     e1 = np.asarray(storage_modulus, dtype=float)
     e2 = e1 * np.asarray(loss_factor, dtype=float)
-    w = 2.0 * np.pi * f
-    lo = math.log10(1.0 / (2.0 * np.pi * f[-1]) / 10.0)
-    hi = math.log10(10.0 / (2.0 * np.pi * f[0]))
-    tau = np.logspace(lo, hi, max(2, int(math.ceil((hi - lo) * terms_per_decade)) + 1))
-    wt = w[:, None] * tau[None, :]
+    tau = relaxation_time_grid(f, terms_per_decade)
+    wt = 2.0 * np.pi * f[:, None] * tau[None, :]
     weight = 1.0 / np.hypot(e1, e2)
-    a = wt / (1.0 + wt**2) * weight[:, None]
-    col = np.linalg.norm(a, axis=0)
-    col[col == 0] = 1.0
-    coef, _ = nnls(a / col, e2 * weight, maxiter=50 * a.shape[1])
-    coef = coef / col
+    coef = scaled_nnls(wt / (1.0 + wt**2) * weight[:, None], e2 * weight)
     rise = (wt**2 / (1.0 + wt**2)) @ coef
     w_rel = 1.0 / e1**2
     relaxed = float(np.sum((e1 - rise) * w_rel) / np.sum(w_rel))

@@ -443,6 +443,23 @@ class Material:
 # table fit
 
 
+def relaxation_time_grid(frequency, terms_per_decade: int) -> np.ndarray:
+    """Fixed, log-spaced relaxation times [s] for a table on ``frequency`` [Hz] (increasing):
+    ``terms_per_decade`` per decade from 1 / (2 pi f_max) / 10 to 10 / (2 pi f_min), at least two."""
+    lo = math.log10(1.0 / (2.0 * np.pi * frequency[-1]) / 10.0)
+    hi = math.log10(10.0 / (2.0 * np.pi * frequency[0]))
+    return np.logspace(lo, hi, max(2, int(math.ceil((hi - lo) * terms_per_decade)) + 1))
+
+
+def scaled_nnls(a: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+    """Non-negative least squares min |a x - rhs|, x >= 0, with the columns of ``a`` scaled to unit norm
+    first (keeps nnls well conditioned when the rows are already weighted to O(1))."""
+    col = np.linalg.norm(a, axis=0)
+    col[col == 0] = 1.0
+    coef, _ = nnls(a / col, rhs, maxiter=50 * a.shape[1])
+    return coef / col
+
+
 def fit_generalized_maxwell(frequency, storage_modulus, loss_factor, terms_per_decade=_TABLE_TERMS_PER_DECADE):
     """Fit a causal generalised Maxwell model to (f, E', eta) points by non-negative least squares.
 
@@ -477,29 +494,19 @@ def fit_generalized_maxwell(frequency, storage_modulus, loss_factor, terms_per_d
     f = np.asarray(frequency, dtype=float)
     e1 = np.asarray(storage_modulus, dtype=float)
     e2 = e1 * np.asarray(loss_factor, dtype=float)
-    w = 2.0 * np.pi * f
-    lo = math.log10(1.0 / (2.0 * np.pi * f[-1]) / 10.0)
-    hi = math.log10(10.0 / (2.0 * np.pi * f[0]))
-    n_tau = max(2, int(math.ceil((hi - lo) * terms_per_decade)) + 1)
-    tau = np.logspace(lo, hi, n_tau)
-    wt = w[:, None] * tau[None, :]
+    tau = relaxation_time_grid(f, terms_per_decade)
+    wt = 2.0 * np.pi * f[:, None] * tau[None, :]
     weight = 1.0 / np.hypot(e1, e2)
     a_real = np.hstack([np.ones((f.size, 1)), wt**2 / (1.0 + wt**2)]) * weight[:, None]
     a_imag = np.hstack([np.zeros((f.size, 1)), wt / (1.0 + wt**2)]) * weight[:, None]
-    a = np.vstack([a_real, a_imag])
-    rhs = np.concatenate([e1 * weight, e2 * weight])
-    # column scaling keeps nnls well conditioned (all columns O(1) after the row weighting)
-    col = np.linalg.norm(a, axis=0)
-    col[col == 0] = 1.0
-    coef, _ = nnls(a / col, rhs, maxiter=50 * a.shape[1])
-    coef = coef / col
+    coef = scaled_nnls(np.vstack([a_real, a_imag]), np.concatenate([e1 * weight, e2 * weight]))
     keep = coef[1:] > 0
     model = GeneralizedMaxwell(
         E_inf=float(coef[0]),
         moduli=tuple(float(v) for v in coef[1:][keep]),
         relaxation_times=tuple(float(v) for v in tau[keep]),
     )
-    rel = np.abs(model.modulus(w) - (e1 + 1j * e2)) * weight
+    rel = np.abs(model.modulus(2.0 * np.pi * f) - (e1 + 1j * e2)) * weight
     return model, float(rel.max()), float(np.sqrt(np.mean(rel**2)))
 
 

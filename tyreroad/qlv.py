@@ -298,7 +298,43 @@ class ViscoelasticSprings:
         return MarchSprings(table, self.relaxation, 1.0 / float(kernel.sample_rate))
 
 
-class MarchSprings:
+class _RecursiveSprings:
+    """What the single- and multi-stage QLV march springs share: the per-element history (h, F_el,
+    the offsets H), its reset, its advance by a converged step, and the clip at separation."""
+
+    @property
+    def zeta_step(self) -> float:
+        return self.table.zeta_step
+
+    def start(self) -> None:
+        """Rest: no force history."""
+        self.h[:] = 0.0
+        self.f_el[:] = 0.0
+        self.offset[:] = 0.0
+
+    def evaluate(self, zeta):
+        z = np.ascontiguousarray(np.asarray(zeta, dtype=float).ravel())
+        f, k = np.empty(z.size), np.empty(z.size)
+        self.evaluate_into(z, f, k)
+        return f, k
+
+    @staticmethod
+    def _clip(zeta: np.ndarray, force_out: np.ndarray, stiffness_out: np.ndarray) -> None:
+        """A spring never pulls: no force and no tangent where open or where the history would pull."""
+        off = (zeta <= 0.0) | (force_out <= 0.0)
+        force_out[off] = 0.0
+        stiffness_out[off] = 0.0
+
+    def _advance(self, zeta) -> None:
+        """The history (h, F_el) by a converged step ending at compressions ``zeta`` [m], shape (M,)."""
+        self.table.evaluate_into(np.ascontiguousarray(np.asarray(zeta, dtype=float)), self._f, self._k)
+        increment = self._f - self.f_el
+        self.h *= self.decay
+        self.h += increment[:, None] * self.gain
+        self.f_el[:] = self._f
+
+
+class MarchSprings(_RecursiveSprings):
     """QLV springs of one march at a fixed time step: F = max(a F_el(zeta) + H, 0) (module docstring).
 
     The springs protocol of :func:`tyreroad.newton.solve_step` (``evaluate_into``,
@@ -319,10 +355,6 @@ class MarchSprings:
         self._f, self._k = np.empty(m), np.empty(m)
 
     @property
-    def zeta_step(self) -> float:
-        return self.table.zeta_step
-
-    @property
     def stiffness(self) -> np.ndarray:
         return self.table.stiffness
 
@@ -336,27 +368,13 @@ class MarchSprings:
         ``tyreroad.kernel.LayerKernel.check_springs``)."""
         return float(self.a * np.max(self.table.stiffness))
 
-    def start(self) -> None:
-        """Rest: no force history."""
-        self.h[:] = 0.0
-        self.f_el[:] = 0.0
-        self.offset[:] = 0.0
-
     def evaluate_into(self, zeta: np.ndarray, force_out: np.ndarray, stiffness_out: np.ndarray) -> None:
         """F = max(a F_el(zeta) + H, 0) and its tangent a k_el (0 where clipped or zeta <= 0)."""
         self.table.evaluate_into(zeta, force_out, stiffness_out)
         force_out *= self.a
         force_out += self.offset
         stiffness_out *= self.a
-        off = (zeta <= 0.0) | (force_out <= 0.0)
-        force_out[off] = 0.0
-        stiffness_out[off] = 0.0
-
-    def evaluate(self, zeta):
-        z = np.ascontiguousarray(np.asarray(zeta, dtype=float).ravel())
-        f, k = np.empty(z.size), np.empty(z.size)
-        self.evaluate_into(z, f, k)
-        return f, k
+        self._clip(zeta, force_out, stiffness_out)
 
     def contact_stiffness(self) -> np.ndarray:
         """a k_el(0+) of every spring [N/m] (the Newton unknown's scaling at first contact)."""
@@ -364,11 +382,7 @@ class MarchSprings:
 
     def commit(self, zeta: np.ndarray) -> None:
         """Advance the history by the converged step's compressions ``zeta`` [m], shape (M,)."""
-        self.table.evaluate_into(np.ascontiguousarray(zeta, dtype=float), self._f, self._k)
-        increment = self._f - self.f_el
-        self.h *= self.decay
-        self.h += increment[:, None] * self.gain
-        self.f_el[:] = self._f
+        self._advance(zeta)
         self.offset = self.h @ self.decay - self._gain_sum * self.f_el
 
     def for_stages(self, fractions) -> "StageMarchSprings":
@@ -377,7 +391,7 @@ class MarchSprings:
         return StageMarchSprings(self.table, self.relaxation, self.dt, fractions)
 
 
-class StageMarchSprings:
+class StageMarchSprings(_RecursiveSprings):
     """QLV springs of a stage march (:class:`tyreroad.stage.StageKernel`): the unknowns of step n are the stage
     compressions at t_(n-1) + c_i dt, stage-major (index i M + e), c_S = 1.
 
@@ -413,10 +427,6 @@ class StageMarchSprings:
         self._f, self._k = np.empty(m), np.empty(m)
 
     @property
-    def zeta_step(self) -> float:
-        return self.table.zeta_step
-
-    @property
     def n_springs(self) -> int:
         return self.fractions.size * self.m
 
@@ -424,11 +434,6 @@ class StageMarchSprings:
     def max_stiffness(self) -> float:
         """The stiffest tangent within a step, max_i a_i max k_el [N/m]."""
         return float(self.a_stage.max() * np.max(self.table.stiffness))
-
-    def start(self) -> None:
-        self.h[:] = 0.0
-        self.f_el[:] = 0.0
-        self.offset[:] = 0.0
 
     def evaluate_into(self, zeta: np.ndarray, force_out: np.ndarray, stiffness_out: np.ndarray) -> None:
         m = self.m
@@ -439,15 +444,7 @@ class StageMarchSprings:
             np.multiply(self._f, a, out=f)
             f += self.offset[part]
             np.multiply(self._k, a, out=k)
-        off = (zeta <= 0.0) | (force_out <= 0.0)
-        force_out[off] = 0.0
-        stiffness_out[off] = 0.0
-
-    def evaluate(self, zeta):
-        z = np.ascontiguousarray(np.asarray(zeta, dtype=float).ravel())
-        f, k = np.empty(z.size), np.empty(z.size)
-        self.evaluate_into(z, f, k)
-        return f, k
+        self._clip(zeta, force_out, stiffness_out)
 
     def contact_stiffness(self) -> np.ndarray:
         k0 = np.asarray(self.table.contact_stiffness(), dtype=float)
@@ -455,11 +452,7 @@ class StageMarchSprings:
 
     def commit(self, zeta: np.ndarray) -> None:
         """Advance the history by the converged step's last stage (t_n) and set every stage's H for the next."""
-        self.table.evaluate_into(np.ascontiguousarray(np.asarray(zeta, dtype=float)[-self.m:]), self._f, self._k)
-        increment = self._f - self.f_el
-        self.h *= self.decay
-        self.h += increment[:, None] * self.gain
-        self.f_el[:] = self._f
+        self._advance(np.asarray(zeta, dtype=float)[-self.m:])
         m = self.m
         for i in range(self.fractions.size):
             self.offset[i * m:(i + 1) * m] = self.h @ self.decay_stage[i] - self.gain_stage[i].sum() * self.f_el
