@@ -7,6 +7,8 @@ K_sat and every claim's measured number are known in closed form.
 from __future__ import annotations
 
 import math
+import shutil
+from pathlib import Path
 
 import numpy as np
 import xarray as xr
@@ -94,3 +96,16 @@ def append_unloading(run, hold_steps=5, unload_steps=40, recovery=0.6):
         t = run["time"].values
         coords["time"] = ("step", np.concatenate([t, t[-1] + (t[1] - t[0]) * np.arange(1, n_add + 1)]), run["time"].attrs)
     return xr.Dataset(out, coords=coords, attrs=dict(run.attrs))
+
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def copy_workflow(dest, items=("Snakefile", "workflow", "config")) -> Path:
+    """Copy the repository's workflow pieces ``items`` into ``dest`` (created) for a Snakemake run there."""
+    dest = Path(dest)
+    dest.mkdir(parents=True, exist_ok=True)
+    for item in items:
+        src = REPO / item
+        (shutil.copytree if src.is_dir() else shutil.copy)(src, dest / item)
+    return dest

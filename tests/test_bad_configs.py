@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import hashlib
 import re
-import shutil
 import subprocess
 import sys
 import textwrap
@@ -25,9 +24,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
+import _synthetic
 import xarray as xr
 
-ROOT = Path(__file__).resolve().parents[1]
 CONFIGS = ["config/config.yaml", "config/test.yaml"]
 STEP = 1e-3 / 26  # the element grid step of the default surface [m]
 
@@ -189,9 +189,7 @@ def _run(workdir: Path, case, dry=True):
 @pytest.fixture(scope="module")
 def workdir(tmp_path_factory):
     wd = tmp_path_factory.mktemp("bad")
-    for item in ("Snakefile", "workflow", "config"):
-        src = ROOT / item
-        (shutil.copytree if src.is_dir() else shutil.copy)(src, wd / item)
+    _synthetic.copy_workflow(wd)
     _write_scans(wd / "scans")
     _fake_tree(wd, "results")
     _fake_tree(wd, "results-test")

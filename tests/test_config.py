@@ -2,12 +2,13 @@
 
 import copy
 import dataclasses
-import shutil
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
+
+import _synthetic
 import yaml
 from snakemake.utils import validate
 
@@ -90,9 +91,7 @@ def test_merge_is_recursive_and_replaces_lists():
 
 
 def test_bad_config_stops_snakemake_before_any_job(tmp_path):
-    for item in ("Snakefile", "workflow", "config"):
-        src = ROOT / item
-        (shutil.copytree if src.is_dir() else shutil.copy)(src, tmp_path / item)
+    _synthetic.copy_workflow(tmp_path)
     bad = tmp_path / "bad.yaml"
     bad.write_text("surfaces:\n  iso10844:\n    element_size: -0.001\n")
     proc = subprocess.run(
@@ -329,9 +328,7 @@ def test_every_shipped_overlay_runs_its_surfaces_and_plans_the_rest(overlay, tmp
             _SURFACES_DONE[key] = ds["z1"].shape
         nx, ny = cfg["surfaces"][name]["patch_elements"]
         assert _SURFACES_DONE[key] == (nx, ny), name
-    for item in ("Snakefile", "workflow", "config"):
-        src = ROOT / item
-        (shutil.copytree if src.is_dir() else shutil.copy)(src, tmp_path / item)
+    _synthetic.copy_workflow(tmp_path)
     # targets before --configfile: its list of files would take them for config files
     proc = subprocess.run([sys.executable, "-m", "snakemake", "-n", "-j2", *OVERLAY_TARGETS[overlay],
                            "--configfile", "config/config.yaml", f"config/{overlay}"],

@@ -7,13 +7,14 @@ from __future__ import annotations
 
 import re
 import shlex
-import shutil
 import subprocess
 import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+
+import _synthetic
 
 from tyreroad import io as tio
 
@@ -62,9 +63,7 @@ def _tyreroad(args, cwd):
 def repo(tmp_path_factory):
     """A copy of the repository's workflow and config, with a measured scan where recipe 1 expects it."""
     wd = tmp_path_factory.mktemp("readme")
-    for item in ("Snakefile", "workflow", "config"):
-        src = ROOT / item
-        (shutil.copytree if src.is_dir() else shutil.copy)(src, wd / item)
+    _synthetic.copy_workflow(wd)
     rng = np.random.default_rng(25)
     (wd / "scans").mkdir()
     # 560 x 560 samples of 1/26 mm (21.5 mm square), heights 0 - 1 mm on a tilted plane (detrend: plane)

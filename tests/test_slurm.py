@@ -14,13 +14,14 @@ import contextlib
 import csv
 import io as _io
 import os
-import shutil
 import subprocess
 import sys
 from collections import Counter
 from pathlib import Path
 
 import pytest
+
+import _synthetic
 import xarray as xr
 
 from tyreroad.cluster import CLUSTER_RULES
@@ -35,11 +36,7 @@ WRITE_TIME_ATTRS = {"created"}
 
 
 def _copy_workflow(dest):
-    dest.mkdir(parents=True, exist_ok=True)
-    for item in ("Snakefile", "workflow", "config", "profiles"):
-        src = ROOT / item
-        (shutil.copytree if src.is_dir() else shutil.copy)(src, dest / item)
-    return dest
+    return _synthetic.copy_workflow(dest, ("Snakefile", "workflow", "config", "profiles"))
 
 
 def _site_env(**values):

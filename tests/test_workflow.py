@@ -15,6 +15,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
+import _synthetic
 import yaml
 
 import tyreroad
@@ -57,9 +59,7 @@ _DEFAULT_BEFORE: dict = {}  # digest of the default study's results tree before 
 @pytest.fixture(scope="module")
 def workdir(tmp_path_factory):
     wd = tmp_path_factory.mktemp("study")
-    for item in ("Snakefile", "workflow", "config"):
-        src = ROOT / item
-        (shutil.copytree if src.is_dir() else shutil.copy)(src, wd / item)
+    _synthetic.copy_workflow(wd)
     # a results tree of the default study, as a completed run leaves it
     rng = np.random.default_rng(15)
     for rel in ("surface/iso10844.nc", "greens/tread.nc", "contact/iso10844/tread/dynamic_500.nc",
