@@ -159,6 +159,10 @@ def test_symbol_support_bounds_the_patch_and_the_correction_shifts_it_exactly():
     _, hs = construction.symbol_support(tables, 7)
     assert np.all(hs <= h + 1e-12)
     assert np.all(hs <= construction.patch_support(tables[:, 1:4, :], (2, 2), phi) + 1e-12)
+    # the design's lazy bound is one too, on the same phases: two of the symbol's four embeddings, so
+    # between the symbol's bound and the patch
+    lower = construction.circulant_lower_bound(tables, (3, 2), phi)
+    assert np.all(np.isfinite(lower)) and np.all(lower <= hs + 1e-12) and np.all(lower <= h + 1e-12)
     # a self-offset FIR shifts every lambda_min Herm(e^{i phi} G_d) by Re(e^{i phi} Delta)
     corr = construction.Correction(np.array([0.5, -0.2, -0.3]), 1.0, 0.0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0)
     _, shifted = construction.transfer_tables(construction.apply_correction(lags, corr), None, (), (), 16)
