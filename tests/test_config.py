@@ -427,3 +427,24 @@ def test_claim6_section_is_checked(config):
         mutate(cfg)
         with pytest.raises(ConfigError, match=expected.replace(".", r"\.").replace("[", r"\[")):
             _planned(cfg)
+
+
+def test_rolling_strip_past_the_radau_dense_limit_stops_planning_of_rolling_only(tmp_path):
+    """A radau config with the default 150 x 20 strip (3000 elements > 1600) is refused when the rolling jobs
+    are planned, naming the key and the limit; the shipped narrow strip (150 x 10) passes."""
+    qlv = load_config(ROOT / "config" / "config.yaml", ROOT / "config" / "springs-qlv.yaml")
+    with pytest.raises(ConfigError, match=r"surfaces\.iso10844-strip\.patch_elements = \[150, 20\] \(3000 elements\)"
+                                          r".*up to 1600 elements"):
+        C.check_rolling_kernel(qlv)
+    C.check_rolling_kernel(load_config(ROOT / "config" / "config.yaml", ROOT / "config" / "rolling-narrow.yaml"))
+    C.check_rolling_kernel(load_config(ROOT / "config" / "config.yaml"))  # passive: any strip
+    _synthetic.copy_workflow(tmp_path)
+
+    def plan(*args):
+        return subprocess.run([sys.executable, "-m", "snakemake", "-n", "-j1", *args, "--configfile",
+                               "config/config.yaml", "config/springs-qlv.yaml"], cwd=tmp_path, capture_output=True,
+                              text=True)
+
+    # (the same overlay planning the study: test_every_shipped_overlay_runs_its_surfaces_and_plans_the_rest)
+    refused = plan("rolling")
+    assert refused.returncode != 0 and "up to 1600 elements" in refused.stdout + refused.stderr

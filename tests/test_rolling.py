@@ -12,6 +12,7 @@ from tyreroad.greens import greens_dataset, offset_table_index, static_element_k
 from tyreroad.material import material_from_config
 from tyreroad.kernel import LayerKernel
 from tyreroad.report import ReportContext, rolling_section
+from tyreroad.report.sections import rolling_spring_comparison_section
 from tyreroad.rolling import (
     RollingPass,
     RollingSettings,
@@ -333,6 +334,26 @@ def test_aggregate_and_report_section():
     md = build_rolling_report(agg, figures=["figures/fig11_rolling_force.png", "figures/fig14_contact_map.png"])
     assert "![fig14_contact_map](figures/fig14_contact_map.png)" in md
     assert md.index("## Figures") < md.index("## Config")
+    # the QLV-springs comparison (issue 24): matched pass by pass, the ratio of the steady loss forces
+    qlv = agg.copy(deep=True)
+    qlv.attrs["config"] = "springs:\n  rheology: qlv\n"
+    qlv["steady_loss_force"] = qlv["steady_loss_force"] * 1.5 + 1e-3
+    qlv["mode"] = ("case", np.array(["dynamic", "quasistatic"]))
+    agg2 = agg.copy()
+    agg2["mode"] = qlv["mode"]
+    section = "\n".join(rolling_spring_comparison_section(
+        ReportContext(rolling=qlv, rolling_reference=agg2, rolling_reference_label="results-elastic")))
+    ratio = (1.5 * float(agg["steady_loss_force"][0]) + 1e-3) / float(agg["steady_loss_force"][0])
+    assert "springs are `qlv`, those of `results-elastic` `elastic`" in section
+    assert f"| tread | dynamic | 5 |" in section and f"| {ratio:.3f} |" in section
+    assert f"{ratio:.3f}-{ratio:.3f} times" in section  # only the dynamic pass counts in the summary
+    missing = rolling_spring_comparison_section(ReportContext(rolling=qlv, rolling_reference_label="results-elastic"))
+    assert any("`results-elastic/rolling.nc` is missing" in line for line in missing)
+    other = agg2.copy()
+    other.attrs["strip_length"] = 0.3
+    assert any(line.startswith("Not compared") for line in rolling_spring_comparison_section(
+        ReportContext(rolling=qlv, rolling_reference=other, rolling_reference_label="r")))
+    assert rolling_spring_comparison_section(ReportContext(rolling=qlv)) == []  # no spring_comparison: no section
 
 
 def test_static_indentation_carries_the_load():

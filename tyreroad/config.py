@@ -532,6 +532,32 @@ def _check_hard_contact(config: Mapping[str, Any]) -> None:
             "spring); set study.compare_constructions: []")
 
 
+def check_rolling_kernel(config: Mapping[str, Any]) -> None:
+    """The rolling strips on the Radau stage kernel (dense substrate only) must fit its dense limit.
+
+    Called when the rolling jobs are planned (rule ``rolling_greens``), not by :func:`check_config`: the default
+    config's 150 x 20 strip must not refuse a ``radau`` config that only runs the study.
+
+    Raises
+    ------
+    ConfigError
+        Naming ``greens.construction``, the strip's ``patch_elements`` and the limit.
+    """
+    own = (config.get("greens", {}) or {}).get("construction", _GREENS.construction)
+    if own != "radau":
+        return
+    from .stage import DENSE_LIMIT
+
+    for name in (config.get("rolling", {}) or {}).get("surfaces", []) or []:
+        patch = ((config.get("surfaces", {}) or {}).get(name, {}) or {}).get("patch_elements")
+        if patch is not None and int(patch[0]) * int(patch[1]) > DENSE_LIMIT:
+            raise ConfigError(
+                f"greens.construction = 'radau' with the rolling strip surfaces.{name}.patch_elements = "
+                f"{list(patch)} ({int(patch[0]) * int(patch[1])} elements): the Radau stage kernel has a dense "
+                f"substrate only, strips up to {DENSE_LIMIT} elements (e.g. [150, 10], config/rolling-narrow.yaml), "
+                "or the passive kernel (greens.construction: passive)")
+
+
 def surface_plan(name: str, spec: Mapping[str, Any], base_dir: str | Path = ".") -> dict[str, Any]:
     """Parse a surface preset as the surface stage will, and check that its patch fits.
 

@@ -636,12 +636,24 @@ def run_rolling_figures(rolling_nc: str | Path, map_ncs: Sequence[str | Path], o
     plot_rolling_figures(io.read_dataset(rolling_nc), [io.read_dataset(p) for p in map_ncs], [str(p) for p in outputs])
 
 
-def run_rolling_report(rolling_nc: str | Path, out_md: str | Path, figure_pngs: Sequence[str | Path] = ()) -> None:
+def run_rolling_report(rolling_nc: str | Path, out_md: str | Path, figure_pngs: Sequence[str | Path] = (),
+                       spring_comparison: Mapping[str, Any] | None = None) -> None:
     """``results/rolling.md``: the report's rolling section (table per material and speed), and the
-    figures ``figure_pngs`` embedded with their captions, linked relative to the report."""
+    figures ``figure_pngs`` embedded with their captions, linked relative to the report. With
+    ``spring_comparison`` (config key), the section comparing these passes with the elastic-springs rolling
+    study in ``spring_comparison['elastic_results']``/rolling.nc (a missing file is said, not an error)."""
     import os
 
     from .report import build_rolling_report, write_report
 
     figures = [Path(os.path.relpath(p, Path(out_md).parent)).as_posix() for p in figure_pngs]
-    write_report(build_rolling_report(io.read_dataset(rolling_nc), figures=figures), out_md)
+    reference, label = None, ""
+    if spring_comparison:
+        label = str(spring_comparison["elastic_results"])
+        path = Path(label) / "rolling.nc"
+        if path.exists():
+            reference = io.read_dataset(path)
+        else:
+            logger.warning("rolling report: %s is missing; the spring comparison says so", path)
+    write_report(build_rolling_report(io.read_dataset(rolling_nc), figures=figures, reference=reference,
+                                      reference_label=label), out_md)

@@ -32,6 +32,7 @@ from .sections import (
     material_section,
     rolling_header_section,
     rolling_section,
+    rolling_spring_comparison_section,
     stability_section,
     stiffness_spectrum_section,
     surface_section,
@@ -62,8 +63,8 @@ REPORT_SECTIONS: tuple[Section, ...] = (
 )
 
 #: The sections of ``results/rolling.md``, in order.
-ROLLING_REPORT_SECTIONS: tuple[Section, ...] = (rolling_header_section, rolling_section, figures_section,
-                                                config_section)
+ROLLING_REPORT_SECTIONS: tuple[Section, ...] = (rolling_header_section, rolling_section,
+                                                rolling_spring_comparison_section, figures_section, config_section)
 
 
 def _assemble(sections: Sequence[Section], ctx: ReportContext) -> str:
@@ -163,7 +164,8 @@ def build_report(
 
 
 def build_rolling_report(rolling: xr.Dataset, thresholds: Mapping[str, float] | None = None,
-                         figures: Sequence[str] = ()) -> str:
+                         figures: Sequence[str] = (), reference: xr.Dataset | None = None,
+                         reference_label: str = "") -> str:
     """The markdown text of ``results/rolling.md`` from ``results/rolling.nc``.
 
     Parameters
@@ -175,9 +177,13 @@ def build_rolling_report(rolling: xr.Dataset, thresholds: Mapping[str, float] | 
         Overrides of :data:`tyreroad.report.claims.THRESHOLDS`.
     figures : sequence of str, optional
         Figures 11-14 as paths relative to the report's folder: shown with their captions.
+    reference, reference_label : xarray.Dataset or None, str
+        The elastic-springs rolling study this one is compared with and its results folder
+        (``spring_comparison.elastic_results``); a label with ``reference`` None: the section says it is missing.
     """
     ctx = ReportContext(thresholds={**THRESHOLDS, **dict(thresholds or {})},
-                        config_text=str(rolling.attrs.get("config", "")), rolling=rolling, figures=tuple(figures))
+                        config_text=str(rolling.attrs.get("config", "")), rolling=rolling, figures=tuple(figures),
+                        rolling_reference=reference, rolling_reference_label=reference_label)
     return _assemble(ROLLING_REPORT_SECTIONS, ctx)
 
 

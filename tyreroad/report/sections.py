@@ -75,6 +75,10 @@ class ReportContext:
     figures : sequence of str
         The report's figures, as paths relative to the report's folder (``figures/fig5_force.png``):
         embedded with their captions (:mod:`tyreroad.report.figures`).
+    rolling_reference : xarray.Dataset or None
+        The rolling study with elastic contact springs that this (QLV) one is compared with
+        (``spring_comparison.elastic_results``/rolling.nc); ``rolling_reference_label`` names its folder, and a
+        label without a dataset says the file is missing.
     """
 
     thresholds: Mapping[str, float] = field(default_factory=lambda: dict(THRESHOLDS))
@@ -90,6 +94,8 @@ class ReportContext:
     constructions: Mapping[str, tuple] = field(default_factory=dict)
     claim6: xr.Dataset | None = None
     figures: Sequence[str] = ()
+    rolling_reference: xr.Dataset | None = None
+    rolling_reference_label: str = ""
 
 
 def figures_section(ctx: ReportContext) -> list[str]:
@@ -888,3 +894,60 @@ def _rolling_stability_lines(study, t) -> list[str]:
 def config_section(ctx: ReportContext) -> list[str]:
     """The config the report was made from, as YAML."""
     return ["## Config", "", "```yaml", ctx.config_text.rstrip(), "```", ""]
+
+
+def _springs_rheology(study: xr.Dataset) -> str:
+    """``springs.rheology`` of the config a rolling study was made with (``elastic`` when not set)."""
+    import yaml
+
+    config = yaml.safe_load(str(study.attrs.get("config", ""))) or {}
+    return str((config.get("springs") or {}).get("rheology", "elastic"))
+
+
+def rolling_spring_comparison_section(ctx: ReportContext) -> list[str]:
+    """Rolling loss with viscoelastic (QLV) contact springs against elastic ones (issue 24), pass by pass: the
+    cases of this study matched by material, mode and speed with those of ``ctx.rolling_reference`` (none
+    without ``spring_comparison``). Both must be on the same strip; the table states each one's springs."""
+    study, ref, label = ctx.rolling, ctx.rolling_reference, ctx.rolling_reference_label
+    if study is None or not label:
+        return []
+    lines = ["## Rolling loss with viscoelastic contact springs", ""]
+    if ref is None:
+        return lines + [f"The elastic-springs rolling study `{label}/rolling.nc` is missing: run it first (same "
+                        "config without `springs.rheology: qlv`); nothing is compared.", ""]
+    same = {k: (study.attrs.get(k), ref.attrs.get(k)) for k in ("surface", "strip_length", "radius")}
+    differ = {k: v for k, v in same.items() if v[0] != v[1]}
+    if differ:
+        return lines + ["Not compared: the two rolling studies are not on the same strip ("
+                        + ", ".join(f"{k} {a} here, {b} in `{label}`" for k, (a, b) in differ.items()) + ").", ""]
+    mine, theirs = _springs_rheology(study), _springs_rheology(ref)
+    lines += [f"This study's contact springs are `{mine}`, those of `{label}` `{theirs}`; strip {study.attrs['surface']} "
+              f"({study.attrs['strip_length'] * 1e3:.0f} mm), both at the wheel load (d0 set pass by pass). "
+              "Steady P/v: the belt's mean power over the steady part / v; coefficient: that over the steady mean "
+              "force.", "",
+              f"| material | mode | v [m/s] | d0 {theirs} / {mine} [mm] | mean F {theirs} / {mine} [N] | "
+              f"steady P/v {theirs} / {mine} [N] | ratio | coefficient {theirs} / {mine} | fs/2 alternation {mine} |",
+              "|---|---|---|---|---|---|---|---|---|"]
+    key = lambda d, i: (str(d["material"].values[i]), str(d["mode"].values[i]), float(d["speed"].values[i]))
+    ref_cases = {key(ref, i): i for i in range(ref.sizes["case"])}
+    ratios = []
+    for i in range(study.sizes["case"]):
+        j = ref_cases.get(key(study, i))
+        if j is None:
+            continue
+        a, b = ref.isel(case=j), study.isel(case=i)
+        ratio = float(b["steady_loss_force"]) / float(a["steady_loss_force"])
+        if str(b["mode"].item()) == "dynamic":
+            ratios.append(ratio)
+        alt = float(b["fs2_alternation"]) if "fs2_alternation" in b else float("nan")
+        lines.append(f"| {b['material'].item()} | {b['mode'].item()} | {float(b['speed']):g} | "
+                     f"{1e3 * float(a['d0']):.4f} / {1e3 * float(b['d0']):.4f} | {float(a['steady_force']):.1f} / "
+                     f"{float(b['steady_force']):.1f} | {float(a['steady_loss_force']):.4g} / "
+                     f"{float(b['steady_loss_force']):.4g} | {ratio:.3f} | {float(a['rolling_loss_coefficient']):.3e} / "
+                     f"{float(b['rolling_loss_coefficient']):.3e} | {alt:.1e} |")
+    if ratios:
+        lines += ["", f"Dynamic passes: the steady rolling-loss force with `{mine}` springs is "
+                  f"{min(ratios):.3f}-{max(ratios):.3f} times that with `{theirs}` springs. The contact springs' own "
+                  "hysteresis (they relax with the tread's modulus) adds to the layer's; quasi-static passes "
+                  "hold relaxed states, where both spring laws give the same force."]
+    return lines + [""]

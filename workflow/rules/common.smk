@@ -12,6 +12,7 @@ from tyreroad.config import (
     check_config,
     check_config_files,
     check_job,
+    check_rolling_kernel,
     expand_material_temperatures,
     rolling_materials,
     sensitivity_points,
@@ -158,6 +159,14 @@ def max_patch_elements(rolling=False):
     sizes = [tuple(s["patch_elements"]) for name, s in config["surfaces"].items()
              if (name in ROLLING_SURFACES) == rolling]
     return [max(s[0] for s in sizes), max(s[1] for s in sizes)]
+
+
+def rolling_greens_elements(wildcards):
+    """The rolling greens' table size (the largest strip), after checking that the kernel can take it: called
+    while the rolling jobs are planned, so a strip too large for the Radau kernel stops `snakemake -n rolling`."""
+    checked(wildcards)
+    check_rolling_kernel(config)
+    return max_patch_elements(rolling=True)
 
 
 def study_element_size():

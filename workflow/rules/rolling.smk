@@ -16,7 +16,7 @@ rule rolling_greens:
     params:
         material=resolved_material,
         greens=config["greens"],
-        n_elements=max_patch_elements(rolling=True) if ROLLING_SURFACES else [1, 1],
+        n_elements=rolling_greens_elements if ROLLING_SURFACES else [1, 1],
         element_size=study_element_size(),
         code=SOURCE["greens"],
     threads: 1
@@ -94,6 +94,7 @@ rule rolling_report:
         f"{R}/logs/rolling_report.log",
     params:
         code=SOURCE["rolling_report"],
+        spring_comparison=config.get("spring_comparison"),  # optional (issue 24): QLV vs elastic springs
     threads: 1
     script:
         "../scripts/rolling_report.py"

@@ -10,4 +10,5 @@ from tyreroad import log, pipeline
 
 log.configure(snakemake.log[0])
 pipeline.run_rolling_report(rolling_nc=snakemake.input.study, out_md=snakemake.output.md,
-                            figure_pngs=snakemake.input.get("figures", []))
+                            figure_pngs=snakemake.input.get("figures", []),
+                            spring_comparison=snakemake.params.get("spring_comparison"))
