@@ -15,9 +15,9 @@ import yaml
 
 from tyreroad import sensitivity as S
 from tyreroad.contact import SolverSettings, contact_dataset, solve_run
-from tyreroad.greens import greens_dataset
+from tyreroad.greens import GreensSettings
 from tyreroad.material import material_from_config
-from tyreroad.pipeline import resolved_material_config
+from tyreroad.pipeline import build_greens, resolved_material_config
 from tyreroad.report import THRESHOLDS
 from tyreroad.springs import SpringModel, element_springs, resolve_spring_modulus
 from tyreroad.study import StudySettings, aggregate
@@ -115,9 +115,8 @@ def _direct_run(cfg, surface, preset, name, mode, accel):
     model = SpringModel.from_config(cfg["springs"])
     springs = element_springs(surface, model, modulus=resolve_spring_modulus(model, mat.quasi_static_modulus),
                               poisson=mat.poisson, thickness=mat.thickness)
-    g = cfg["greens"]
-    greens = greens_dataset(mat, n_elements=(6, 6), element_size=1e-3, sample_rate=g["sample_rate"],
-                            n_lags=g["n_lags"], n_fft=g["n_fft"])
+    # the kernel the greens rule makes (run_greens writes build_greens' dataset): the configured construction
+    greens = build_greens(mat, (6, 6), 1e-3, GreensSettings.from_config(cfg["greens"]))
     res = solve_run(surface, springs, greens, mat, mode, accel, SolverSettings.from_config(cfg["solver"]))
     return contact_dataset(res, mode, accel, "iso10844", name)
 

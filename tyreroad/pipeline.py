@@ -172,12 +172,44 @@ def run_greens(
     element_size: float,
     out_nc: str | Path,
 ) -> None:
-    """Stage ``greens``: the layer's element Green's functions for one material."""
-    from .greens import GreensSettings, greens_dataset
+    """Stage ``greens``: the layer's element Green's functions for one material (:func:`build_greens`)."""
+    from .greens import GreensSettings
+
+    material = _material(material_name, material_cfg)
+    ds = build_greens(material, n_elements, float(element_size), GreensSettings.from_config(greens_cfg))
+    provenance = {
+        "material": {material_name: dict(material.config)},
+        "greens": dict(greens_cfg),
+        "n_elements": list(n_elements),
+        "element_size": element_size,
+    }
+    io.write_dataset(ds, out_nc, provenance, stage="greens", material=material_name)
+
+
+def build_greens(material, n_elements: Sequence[int], element_size: float, settings) -> xr.Dataset:
+    """The kernel the greens stage makes for a material and patch, under ``settings.construction``.
+
+    One place for what every time-domain user of a kernel runs on (the greens stage, the sensitivity
+    sweep): the fold, its spring-safe correction (``passive``) or the Radau stage tables (``radau``), and
+    the checks of :func:`_judge_kernel` (margin and fidelity stored; an unfaithful kernel refused).
+
+    Parameters
+    ----------
+    material : tyreroad.material.Material
+    n_elements : (int, int)
+        Patch [elements].
+    element_size : float
+        [m].
+    settings : tyreroad.greens.GreensSettings
+
+    Returns
+    -------
+    xarray.Dataset
+        The greens dataset as the greens file holds it (without provenance).
+    """
+    from .greens import greens_dataset
 
     support = None
-    material = _material(material_name, material_cfg)
-    settings = GreensSettings.from_config(greens_cfg)
     shape = tuple(int(n) for n in n_elements)
     ds = greens_dataset(
         material,
@@ -200,24 +232,16 @@ def run_greens(
         ds, correction = correct_greens(ds, shape=design, n_theta=256, n_phi=8, k_target=PASSIVE_TARGETS,
                                         n_dense=PASSIVE_DENSE, max_rounds=30)
         for note in correction.notes:  # a target not reachable within the fidelity budget (low-loss variants)
-            logger.warning("greens %s: %s", material_name, note)
-        logger.info("greens %s: %s", material_name, correction.summary())
+            logger.warning("greens %s: %s", material.name, note)
+        logger.info("greens %s: %s", material.name, correction.summary())
         if design == shape:
             support = correction.margin_support()
     if settings.construction == "radau":
         from .stage import radau_greens
 
         # the stage kernel beside the fold kernel: its tables, margin (inf by construction) and fidelity
-        ds = radau_greens(ds, material, shape)
-    else:
-        ds = _judge_kernel(ds, material, shape, settings.construction, support)
-    provenance = {
-        "material": {material_name: dict(material.config)},
-        "greens": dict(greens_cfg),
-        "n_elements": list(n_elements),
-        "element_size": element_size,
-    }
-    io.write_dataset(ds, out_nc, provenance, stage="greens", material=material_name)
+        return radau_greens(ds, material, shape)
+    return _judge_kernel(ds, material, shape, settings.construction, support)
 
 
 #: Springs [N/m] the passive correction is designed for, tried in turn until the LP meets one (the last

@@ -33,7 +33,7 @@ secant steps on log K_sat against log factor. The achieved K_sat is recorded. Lo
 variants of a point use its calibrated moduli.
 
 Every contact run goes through the public stage functions (:func:`tyreroad.surface.prepare_surface`,
-:func:`tyreroad.springs.element_springs`, :func:`tyreroad.greens.greens_dataset`,
+:func:`tyreroad.springs.element_springs`, :func:`tyreroad.pipeline.build_greens`,
 :func:`tyreroad.contact.solve_run`), exactly as the study's rules call them.
 """
 
@@ -52,9 +52,9 @@ import xarray as xr
 
 from . import io
 from .contact import contact_dataset, solve_run
-from .greens import GreensSettings, greens_dataset
+from .greens import GreensSettings
 from .material import material_from_config
-from .pipeline import resolved_material_config
+from .pipeline import build_greens, resolved_material_config
 from .report.claims import CLAIMS, THRESHOLDS, ClaimContext
 from .solver import SolverSettings
 from .springs import SpringModel, element_springs, resolve_spring_modulus
@@ -348,9 +348,8 @@ class _Runner:
                 modulus=resolve_spring_modulus(self.spring_model, material.quasi_static_modulus),
                 poisson=material.poisson, thickness=material.thickness,
             )
-            gs = self.greens_settings
-            greens = greens_dataset(material, n_elements=self.n_elements, element_size=self.element_size,
-                                    sample_rate=gs.sample_rate, n_lags=gs.n_lags, n_fft=gs.n_fft)
+            # the study's own kernel (greens.construction, its correction and checks), not a bare fold
+            greens = build_greens(material, self.n_elements, self.element_size, self.greens_settings)
             self._cache[key] = (material, springs, greens)
         return self._cache[key]
 
