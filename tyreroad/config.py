@@ -535,7 +535,11 @@ def _check_hard_contact(config: Mapping[str, Any]) -> None:
 def surface_plan(name: str, spec: Mapping[str, Any], base_dir: str | Path = ".") -> dict[str, Any]:
     """Parse a surface preset as the surface stage will, and check that its patch fits.
 
-    For ``generator: file`` the scan file is checked cheaply (:func:`tyreroad.scans.check_scan_header`).
+    For ``generator: file`` the scan file is checked cheaply (:func:`tyreroad.scans.check_scan_header`);
+    a scan of at most :data:`SCAN_READ_LIMIT` bytes is read in full and, under the default
+    ``patch_selection: contact_fraction``, its patch is selected as the job will
+    (:func:`tyreroad.surface.select_patch`), so that a scan without a qualifying patch stops planning
+    with the keys to set (``surfaces.<name>.patch_selection`` or ``surfaces.<name>.origin``).
 
     Returns
     -------
@@ -548,7 +552,7 @@ def surface_plan(name: str, spec: Mapping[str, Any], base_dir: str | Path = ".")
         n = int(c["samples_per_element"])
         step = float(c["element_size"]) / n
         px, py = (int(v) for v in c["patch_elements"])
-        info = None
+        info = scan = None
         if generator in ("iso10844", "spectral"):
             cls = S.Iso10844Parameters if generator == "iso10844" else S.SpectralParameters
             params = S._preset_params(cls, name, spec, S.COMMON_KEYS)
@@ -605,6 +609,14 @@ def surface_plan(name: str, spec: Mapping[str, Any], base_dir: str | Path = ".")
                     f"a patch of at most {shape[0] // n} x {shape[1] // n} elements: it needs {need[0]} x {need[1]} "
                     f"samples at {step:.4g} m, {where} gives {have}",
                 )
+            if scan is not None and sel.origin is None and sel.rule == "contact_fraction":
+                # a scan read in full: the job's patch selection runs now, so that a scan without a
+                # qualifying patch (e.g. one exported from a study patch) stops planning, not the job
+                field = scans.to_element_grid(scan, step, (px, py), n)
+                try:
+                    S.select_patch(field, n, step, sel, preset=name)
+                except ValueError as exc:
+                    raise ConfigError(f"{exc} (scan {info['path']})") from None
         return {"element_size": float(c["element_size"]), "patch_elements": (px, py), "scan": info}
     except ConfigError:
         raise

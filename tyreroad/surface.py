@@ -597,7 +597,7 @@ def element_peaks(height: np.ndarray, samples_per_element: int, step: float):
 
 
 def select_patch(
-    height: np.ndarray, samples_per_element: int, step: float, selection: PatchSelection
+    height: np.ndarray, samples_per_element: int, step: float, selection: PatchSelection, preset: str = ""
 ) -> tuple[int, int, float]:
     """Choose the patch origin (sample indices) by the rule in the module docstring.
 
@@ -611,6 +611,9 @@ def select_patch(
         Sample step [m].
     selection : PatchSelection
         Rule and parameters.
+    preset : str
+        Surface preset name; when given, the error of the contact-fraction rule names the keys to set
+        as full key paths (``surfaces.<preset>.patch_selection``, ``surfaces.<preset>.origin``).
 
     Returns
     -------
@@ -671,11 +674,14 @@ def select_patch(
     best = float(frac[ci, cj])
     lo, hi = selection.fraction_range
     if not lo <= best <= hi:
+        key = f"surfaces.{preset}." if preset else ""
         raise ValueError(
-            f"no {px} x {py}-element patch has {lo:.0%}-{hi:.0%} of its element peaks within "
-            f"{selection.fraction_depth * 1e3:g} mm of its top (closest to the target: {best:.1%}; "
-            f"range over all candidates {frac.min():.1%}-{frac.max():.1%}); set 'origin' or "
-            f"'patch_selection: centre', widen 'fraction_range', or change the surface"
+            f"{key}patch_selection = 'contact_fraction': no {px} x {py}-element patch has {lo:.0%}-{hi:.0%} "
+            f"of its element peaks within {selection.fraction_depth * 1e3:g} mm of its top (closest to the "
+            f"target {selection.target_fraction:.0%}: {best:.1%}; range over all {frac.size} candidates "
+            f"{frac.min():.1%}-{frac.max():.1%}). A small scan, or one exported from a study patch, often has "
+            f"no such patch: set '{key}patch_selection: centre' (the patch nearest the field centre) or "
+            f"'{key}origin: [x, y]' (m, the patch's corner), or widen '{key}fraction_range'"
         )
     logger.info("patch: %d candidates, chose element origin (%d, %d) with %.1f %% of peaks within %.3g mm",
                 frac.size, ci, cj, 100 * best, selection.fraction_depth * 1e3)
@@ -852,7 +858,7 @@ def surface_dataset(
     skew = skewness(h) if rms > 0 else float("nan")  # a flat road (generator flat) has no skewness
     wl, level = texture_level_spectrum(h, step)
 
-    i0, j0, frac = select_patch(h, n, step, selection)
+    i0, j0, frac = select_patch(h, n, step, selection, preset=name)
     px, py = (int(v) for v in selection.patch_elements)
     patch = np.ascontiguousarray(h[i0 : i0 + px * n, j0 : j0 + py * n])
     z1, peak_x, peak_y = element_peaks(patch, n, step)
