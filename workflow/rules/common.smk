@@ -19,6 +19,7 @@ from tyreroad.config import (
     sensitivity_points,
     validate_schema,
 )
+from tyreroad.pipeline import material_compounds as _material_compounds
 from tyreroad.pipeline import material_variants as _material_variants
 from tyreroad.pipeline import resolved_material_config as _resolved_material_config
 from tyreroad.pipeline import spring_material_inputs as _spring_material_inputs
@@ -72,6 +73,8 @@ localrules:
 R = config["results_dir"]
 STUDY = config["study"]
 STUDY_SURFACE = STUDY["surface"]
+# compound and temperature [degC] of each study material: coordinates of study.nc and stiffness_spectrum.nc
+STUDY_COMPOUNDS = _material_compounds(STUDY["materials"], config["materials"])
 
 # Hash of the tyreroad source each stage runs (tyreroad.provenance.STAGE_MODULES): a rule's params
 # carry it, so a change in the package re-plans exactly the stages whose code changed.
