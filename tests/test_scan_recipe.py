@@ -1,7 +1,9 @@
 """The newcomer's scan case (issue 25, must-show 5): the default study's patch, exported as a ``.npy`` scan
 and read back with the README's recipe 1 ("Your road") exactly as written, runs the surface stage and the
 springs stage; the same scan under the schema default ``patch_selection: contact_fraction`` stops at
-planning time (not 12 s into the job) with a message that names the keys to set.
+planning time (not 12 s into the job) with a message that names the keys to set and the cause: the default
+``detrend: plane`` tilts the levelled patch (1.5 % of its peaks near the top instead of 51 %); with
+``detrend: none`` the default rule takes the whole scan.
 
 The overlay is the README's own YAML block (first line ``# my-road.yaml``), so a change of the documented
 settings is tested here.
@@ -113,6 +115,33 @@ def test_exported_patch_under_the_default_rule_stops_planning_naming_the_keys(ex
     assert "'surfaces.myroad.origin: [x, y]'" in msg
     assert "myroad.npy" in msg
     assert re.search(r"no 20 x 20-element patch has 40 ?%-65 ?% of its element peaks", msg)
+    assert "(closest to the target 51%: 1.5%;" in msg  # the newcomer's number
+    # the cause: the plane removal tilts the levelled patch (as exported it has the contact fraction it was chosen for)
+    assert "the heights as they are in the file have a patch with 51.0%" in msg
+    assert "set 'surfaces.myroad.detrend: none'" in msg
+
+
+def test_exported_patch_as_it_is_passes_the_default_rule(default_patch, exported, tmp_path):
+    """With 'detrend: none' (heights already levelled) the default contact-fraction rule takes the whole scan."""
+    overlay = copy.deepcopy(_recipe_overlay())
+    del overlay["surfaces"]["myroad"]["patch_selection"]
+    overlay["surfaces"]["myroad"]["detrend"] = "none"
+    spec = _planned(overlay, tmp_path)["surfaces"]["myroad"]
+    assert spec.get("patch_selection", "contact_fraction") == "contact_fraction"
+    ds = S.prepare_surface("myroad", spec)
+    assert ds.attrs["patch_selection"] == "contact_fraction" and ds.attrs["selected_fraction"] == 0.51
+    assert np.array_equal(ds["z1"].values, default_patch["z1"].values)
+
+
+def test_job_time_failure_of_a_plane_detrended_exported_patch_says_why(exported, tmp_path):
+    """The same failure in the job (a scan too large to read at planning): the message has the same hint."""
+    spec = {**_recipe_overlay()["surfaces"]["myroad"], "patch_selection": "contact_fraction"}
+    with pytest.raises(ValueError) as exc:
+        pipeline.run_prepare_surface("myroad", spec, "surface.nc", "surface.png")
+    msg = str(exc.value)
+    assert msg.startswith("surfaces.myroad.patch_selection = 'contact_fraction': no 20 x 20-element patch")
+    assert "set 'surfaces.myroad.detrend: none'" in msg
+    assert not Path("surface.nc").exists()
 
 
 def test_job_time_failure_names_the_keys(tmp_path, monkeypatch):

@@ -770,7 +770,8 @@ def surface_plan(name: str, spec: Mapping[str, Any], base_dir: str | Path = ".")
                 try:
                     S.select_patch(field, n, step, sel, preset=name)
                 except ValueError as exc:
-                    raise ConfigError(f"{exc} (scan {info['path']})") from None
+                    hint = S.levelled_scan_hint(name, scan_spec, base_dir, step, n, sel, str(exc))
+                    raise ConfigError(f"{exc} (scan {info['path']}){'. ' + hint if hint else ''}") from None
         return {"element_size": float(c["element_size"]), "patch_elements": (px, py), "scan": info}
     except ConfigError:
         raise
