@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import io
 import math
+import os
 
 import numpy as np
 import pytest
@@ -114,7 +115,7 @@ def test_run_refuses_outside_the_repository(tmp_path):
 def test_kstar_interpolates_linearly_in_d0(results):
     out = CliRunner().invoke(cli.main, ["kstar", "tread", "--preload", "0.12mm", "--results", str(results)])
     assert out.exit_code == 0, out.output
-    table = read_csv(out.output)
+    table = read_csv(out.stdout)  # the CSV alone on standard output; which file was read goes to standard error
     f = table["frequency_Hz"]
     np.testing.assert_allclose(f, FREQ, rtol=1e-9)
     # by hand: 0.12 mm lies 0.4 of the way from 0.10 to 0.15 mm
@@ -127,7 +128,7 @@ def test_kstar_interpolates_linearly_in_d0(results):
     np.testing.assert_allclose(table["storage_transient_N_per_m"], 1.1 * k1, rtol=1e-9)
     # the quadratic K'(d0) differs from its chord: the interpolation is stated, not exact physics
     assert abs(k1[0] / storage(1.2e-4, f[0]) - 1) > 1e-3
-    assert "# interpolation: K' and K'' linear in d0 between the computed preloads 0.1 and 0.15 mm" in out.output
+    assert "# interpolation: K' and K'' linear in d0 between the computed preloads 0.1 and 0.15 mm" in out.stdout
 
 
 def test_kstar_at_a_computed_preload_is_the_file(results):
@@ -189,6 +190,83 @@ def test_combine_spectra_has_a_material_dimension():
         kstar.combine_spectra([a, synthetic_spectrum("x").isel(frequency=slice(1, None))])
     with pytest.raises(ValueError, match="given twice"):
         kstar.combine_spectra([a, a])
+
+
+def _combined(results, materials=("tread", "tread-rho2")):
+    """RESULTS/stiffness_spectrum.nc as rule stiffness_combined writes it; K' of material i scaled by (i + 2)."""
+    from tyreroad import pipeline
+
+    parts = []
+    for i, m in enumerate(materials):
+        ds = synthetic_spectrum(m)
+        ds["storage_stiffness"] = (i + 2) * ds["storage_stiffness"]
+        parts.append(tio.write_dataset(ds, results / "parts" / f"{m}.nc", {}, stage="stiffness_spectrum",
+                                       surface="iso10844", material=m))
+    path = results / "stiffness_spectrum.nc"
+    pipeline.run_stiffness_combined(parts, path, compounds={m: [m, None] for m in materials})
+    return path
+
+
+def test_kstar_reads_the_combined_file(results):
+    path = _combined(results)
+    os.utime(results / "stiffness_spectrum" / "iso10844" / "tread.nc", (1e9, 1e9))  # older than the combined file
+    for material, scale in (("tread", 2), ("tread-rho2", 3)):
+        out = CliRunner().invoke(cli.main, ["kstar", material, "--preload", "0.1mm", "--results", str(results)])
+        assert out.exit_code == 0, out.output
+        assert out.stderr.strip() == f"read K* of {material} from the combined file {path}"
+        assert f"# material: {material}\n" in out.stdout and f"# source: {path}\n" in out.stdout
+        table = read_csv(out.stdout)
+        # the combined file's values (the per-material tread file has K' x 1)
+        np.testing.assert_allclose(table["storage_relaxed_N_per_m"], scale * storage(1e-4, FREQ), rtol=1e-9)
+    # a per-material file newer than the combined one: read the combined file, and say it may be stale
+    os.utime(results / "stiffness_spectrum" / "iso10844" / "tread.nc")
+    os.utime(path, (1e9 + 10, 1e9 + 10))
+    out = CliRunner().invoke(cli.main, ["kstar", "tread", "--preload", "0.1mm", "--results", str(results)])
+    assert out.exit_code == 0 and "from the combined file" in out.stderr
+    assert "is newer than the combined file, which may be stale" in out.stderr
+
+
+def test_kstar_falls_back_to_the_per_material_file_only_without_the_combined_file(results):
+    out = CliRunner().invoke(cli.main, ["kstar", "tread", "--preload", "0.1mm", "--results", str(results)])
+    assert out.exit_code == 0, out.output
+    single = results / "stiffness_spectrum" / "iso10844" / "tread.nc"
+    assert out.stderr.strip() == (f"read K* of tread from the per-material file {single} "
+                                  f"({results / 'stiffness_spectrum.nc'} is absent)")
+    np.testing.assert_allclose(read_csv(out.stdout)["storage_relaxed_N_per_m"], storage(1e-4, FREQ), rtol=1e-9)
+
+
+def test_kstar_combined_file_without_the_material_is_an_error(results):
+    path = _combined(results, materials=("tread-rho2", "tread-eta0.5"))
+    out = CliRunner().invoke(cli.main, ["kstar", "tread", "--preload", "0.1mm", "--results", str(results)])
+    assert out.exit_code != 0
+    single = results / "stiffness_spectrum" / "iso10844" / "tread.nc"
+    assert (f"{path}: material 'tread' is not in the combined K* file (materials: tread-rho2, tread-eta0.5)"
+            in out.output)
+    assert f"{single} exists: read it with --file {single.as_posix()}" in out.output
+    # ... which reads it, saying so
+    out = CliRunner().invoke(cli.main, ["kstar", "tread", "--preload", "0.1mm", "--file", str(single)])
+    assert out.exit_code == 0 and out.stderr.strip() == f"read K* of tread from {single} (--file)"
+    # --file with a combined file picks the material
+    out = CliRunner().invoke(cli.main, ["kstar", "tread-eta0.5", "--preload", "0.1mm", "--file", str(path)])
+    assert out.exit_code == 0, out.output
+    np.testing.assert_allclose(read_csv(out.stdout)["storage_relaxed_N_per_m"], 3 * storage(1e-4, FREQ), rtol=1e-9)
+    out = CliRunner().invoke(cli.main, ["kstar", "tread", "--preload", "0.1mm", "--file", str(path)])
+    assert out.exit_code != 0 and "material 'tread' is not in the file (tread-rho2, tread-eta0.5)" in out.output
+
+
+def test_kstar_combined_file_of_another_surface_is_an_error(results):
+    _combined(results)
+    out = CliRunner().invoke(cli.main, ["kstar", "tread", "--preload", "0.1mm", "--results", str(results),
+                                        "--surface", "myroad"])
+    assert out.exit_code != 0
+    assert "the combined K* file is of surface 'iso10844', not 'myroad'" in out.output
+
+
+def test_kstar_without_any_file_names_both(tmp_path):
+    out = CliRunner().invoke(cli.main, ["kstar", "tread", "--preload", "0.1mm", "--results", str(tmp_path)])
+    assert out.exit_code != 0
+    assert "stiffness_spectrum.nc: no combined K* file" in out.output
+    assert "no K* file for material 'tread' on surface 'iso10844'" in out.output
 
 
 def test_info_summarises_a_result_file(results):

@@ -7,6 +7,7 @@ d_max = 0.1 mm, and checks the sweep against direct calls of the same stage func
 from __future__ import annotations
 
 import copy
+import logging
 from pathlib import Path
 
 import numpy as np
@@ -16,6 +17,7 @@ import yaml
 from tyreroad import sensitivity as S
 from tyreroad.contact import SolverSettings, contact_dataset, solve_run
 from tyreroad.greens import GreensSettings
+from tyreroad.log import format_duration
 from tyreroad.material import material_from_config
 from tyreroad.pipeline import build_greens, resolved_material_config
 from tyreroad.report import THRESHOLDS
@@ -121,16 +123,105 @@ def _direct_run(cfg, surface, preset, name, mode, accel):
     return contact_dataset(res, mode, accel, "iso10844", name)
 
 
+class _TickingClock:
+    """A fake monotonic clock that advances ``tick`` seconds at each reading."""
+
+    def __init__(self, tick):
+        self.now, self.tick = 1000.0, tick
+
+    def __call__(self):
+        self.now += self.tick
+        return self.now
+
+
+class _Lines(logging.Handler):
+    def __init__(self):
+        super().__init__(logging.INFO)
+        self.lines = []
+
+    def emit(self, record):
+        self.lines.append(record.getMessage())
+
+
+#: The progress lines of each point of the fixture (the run is too long to repeat for them).
+PROGRESS_LINES: dict[str, list[str]] = {}
+
+
 @pytest.fixture(scope="module")
 def points(cfg):
     ref = resolved_material_config("tread", cfg["materials"])
     sens = {"acceleration": 500.0, "target_stiffness": 1.2e5, "calibration_tolerance": 0.005}
     out = {}
+    log = logging.getLogger("tyreroad.sensitivity")
     for name, point in {"plain": {"calibrate": False}, "calibrated": {"material": {"alpha": 0.4}}}.items():
         st = S.point_settings(sens, name, point)
-        out[name] = S.run_point(name, st.points[name], ref, cfg["surfaces"]["iso10844"], cfg["springs"],
-                                cfg["greens"], cfg["solver"], cfg["study"], st)
+        handler, level = _Lines(), log.level
+        log.addHandler(handler)
+        log.setLevel(logging.INFO)
+        try:
+            out[name] = S.run_point(name, st.points[name], ref, cfg["surfaces"]["iso10844"], cfg["springs"],
+                                    cfg["greens"], cfg["solver"], cfg["study"], st, clock=_TickingClock(10.0))
+        finally:
+            log.removeHandler(handler)
+            log.setLevel(level)
+        PROGRESS_LINES[name] = [line for line in handler.lines if line.startswith(f"point {name}: run ")]
     return out
+
+
+def test_point_progress_lines_of_real_points(points):
+    """Each run of a point logs a line with the time left (fake clock: every run takes 10 s)."""
+    assert PROGRESS_LINES["plain"] == [
+        "point plain: run 1 of 5 done (calibration 1, dynamic a=500), elapsed 10 s, about 40 s left",
+        "point plain: run 2 of 5 done (eta-low, dynamic a=500), elapsed 20 s, about 30 s left",
+        "point plain: run 3 of 5 done (eta-high, dynamic a=500), elapsed 30 s, about 20 s left",
+        "point plain: run 4 of 5 done (rho-high, dynamic a=500), elapsed 40 s, about 10 s left",
+        "point plain: run 5 of 5 done (reference, quasistatic a=0), elapsed 50 s",
+    ]
+    n_cal = int(points["calibrated"]["calibration_runs"].item())
+    lines = PROGRESS_LINES["calibrated"]
+    assert len(lines) == n_cal + 4
+    for k, line in enumerate(lines[:n_cal], start=1):  # while calibrating the total is an estimate
+        assert line.startswith(f"point calibrated: run {k} of ~") and f"(calibration {k}, dynamic a=500)" in line
+    assert lines[n_cal].startswith(f"point calibrated: run {n_cal + 1} of {n_cal + 4} done (eta-low, ")
+    assert lines[-1] == (f"point calibrated: run {n_cal + 4} of {n_cal + 4} done (reference, quasistatic a=0), "
+                         f"elapsed {format_duration(10 * (n_cal + 4))}")
+
+
+def test_point_progress_total_follows_the_calibration(caplog):
+    class FakeClock:
+        def __init__(self):
+            self.now = 1000.0
+
+        def __call__(self):
+            return self.now
+
+    clock = FakeClock()
+    pp = S.PointProgress("soft", calibrate=True, clock=clock)
+    assert pp.total == 6  # first run + one proportional step + 4 variant runs
+    with caplog.at_level(logging.INFO, logger="tyreroad.sensitivity"):
+        clock.now += 60.0
+        assert pp.run_done("calibration 1, dynamic a=500") == (
+            "point soft: run 1 of ~6 done (calibration 1, dynamic a=500), elapsed 1 min 00 s, about 5 min 00 s left")
+        pp.calibration_step(2)
+        assert pp.total == 6
+        clock.now += 60.0
+        pp.run_done("calibration 2, dynamic a=500")
+        pp.calibration_step(3)  # the secant step: one more than estimated
+        assert pp.total == 7
+        clock.now += 60.0
+        assert pp.run_done("calibration 3, dynamic a=500").endswith("run 3 of ~7 done (calibration 3, dynamic a=500), "
+                                                                     "elapsed 3 min 00 s, about 4 min 00 s left")
+        pp.calibrated(3)
+        clock.now += 30.0
+        assert pp.run_done("eta-low, dynamic a=500") == (
+            "point soft: run 4 of 7 done (eta-low, dynamic a=500), elapsed 3 min 30 s, about 2 min 38 s left")
+    assert [r.getMessage() for r in caplog.records if r.name == "tyreroad.sensitivity"][-1].startswith(
+        "point soft: run 4 of 7 done")
+    # a point that converges at once: the estimate shrinks to the runs it makes
+    quick = S.PointProgress("quick", calibrate=True, clock=clock)
+    quick.run_done("calibration 1, dynamic a=500")
+    quick.calibrated(1)
+    assert quick.total == 5
 
 
 def test_point_matches_the_study_of_the_same_runs(cfg, points):

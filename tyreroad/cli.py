@@ -48,7 +48,9 @@ def run(targets, overlays, jobs, dry_run, results_dir, directory) -> None:
 
 @main.command(help="The contact spring K*(f) of MATERIAL at a preload d0 (interpolated linearly in d0 "
                    "between the computed preloads), as CSV or 1/3-octave bands: K', K'', |K*| [N/m] "
-                   "and the loss factor, for the relaxed and (if computed) transient state.")
+                   "and the loss factor, for the relaxed and (if computed) transient state. Reads "
+                   "RESULTS/stiffness_spectrum.nc (the study's materials), or only when that file is absent "
+                   "RESULTS/stiffness_spectrum/SURFACE/MATERIAL.nc; says which on standard error.")
 @click.argument("material")
 @click.option("--preload", required=True, metavar="LENGTH", help="d0: 0.12mm, 120um or 1.2e-4 (metres).")
 @click.option("--surface", default="iso10844", show_default=True, help="The study surface.")
@@ -59,16 +61,30 @@ def run(targets, overlays, jobs, dry_run, results_dir, directory) -> None:
                    "frequency axis.")
 @click.option("--csv", "csv_path", default=None, type=click.Path(dir_okay=False),
               help="Write the CSV here instead of standard output.")
-def kstar(material, preload, surface, results, third_octave, csv_path) -> None:
+@click.option("--file", "file_path", default=None, type=click.Path(dir_okay=False),
+              help="Read this K* file (combined or per-material) instead of RESULTS/stiffness_spectrum.nc.")
+def kstar(material, preload, surface, results, third_octave, csv_path, file_path) -> None:
     from . import io, kstar as ks
 
     try:
         d0 = ks.parse_length(preload)
-        path = Path(results) / "stiffness_spectrum" / surface / f"{material}.nc"
-        if not path.is_file():
-            raise FileNotFoundError(f"{path}: no K* file for material {material!r} on surface {surface!r}; "
-                                    f"make it with: tyreroad run {path.as_posix()}")
-        table = ks.at_preload(io.read_dataset(path), d0)
+        if file_path is not None:
+            ds = io.read_dataset(file_path)
+            if "material" in ds.dims:
+                names = [str(m) for m in ds["material"].values]
+                if material not in names:
+                    raise ValueError(f"{file_path}: material {material!r} is not in the file ({', '.join(names)})")
+                ds = ds.sel(material=material).drop_vars(
+                    [c for c in ("material", "compound", "temperature") if c in ds.coords])
+                ds.attrs["material"] = material
+            elif str(ds.attrs.get("material", material)) != material:
+                raise ValueError(f"{file_path}: a K* file of material {ds.attrs['material']!r}, not {material!r}")
+            ds.attrs["source_file"] = str(file_path)
+            note = f"read K* of {material} from {file_path} (--file)"
+        else:
+            ds, note = ks.open_material(results, material, surface)
+        click.echo(note, err=True)
+        table = ks.at_preload(ds, d0)
         if third_octave:
             table = ks.third_octave_bands(table)
     except (ValueError, FileNotFoundError) as err:

@@ -31,6 +31,7 @@ import copy
 import difflib
 import math
 import re
+from contextlib import contextmanager
 from functools import lru_cache
 from pathlib import Path
 from typing import Any, Iterable, Mapping, Sequence
@@ -57,6 +58,9 @@ __all__ = [
     "read_yaml",
     "merge",
     "check_config_files",
+    "config_file_order",
+    "key_source",
+    "naming_config_files",
     "validate_schema",
     "check_references",
     "check_config",
@@ -154,6 +158,156 @@ def check_config_files(paths: Iterable[str | Path]) -> None:
     """Read every config file Snakemake loaded, with duplicate keys as errors."""
     for path in paths:
         read_yaml(path)
+
+
+def config_file_order(configfiles: Iterable[str | Path], overwrite_configfiles: Iterable[str | Path] = ()) -> list[str]:
+    """Snakemake's config files in the order their keys apply (a later file wins).
+
+    Snakemake lists the ``--configfile`` files (``workflow.overwrite_configfiles``) first in
+    ``workflow.configfiles`` and appends the Snakefile's ``configfile:``; but it applies the
+    Snakefile's file first and the command line's on top of it, in their order.
+
+    Parameters
+    ----------
+    configfiles : iterable of path-like
+        ``workflow.configfiles``.
+    overwrite_configfiles : iterable of path-like
+        ``workflow.overwrite_configfiles`` (the ``--configfile`` arguments).
+
+    Returns
+    -------
+    list of str
+        The files, lowest precedence first, each once (at its last place of application).
+    """
+    cli = [str(p) for p in (overwrite_configfiles or ())]
+    cli_resolved = {Path(p).resolve() for p in cli}
+    first = [str(p) for p in configfiles if Path(p).resolve() not in cli_resolved]
+    out: list[str] = []
+    for p in first + cli:
+        same = [q for q in out if Path(q).resolve() == Path(p).resolve()]
+        for q in same:
+            out.remove(q)
+        out.append(p)
+    return out
+
+
+#: Top-level keys of the config (the schema's sections): an error paragraph that starts with one names a key.
+_SECTIONS = ("results_dir", "surfaces", "materials", "springs", "spring_comparison", "greens", "solver", "loadings",
+             "study", "stiffness_spectrum", "sensitivity", "rolling")
+
+#: The key path an error paragraph starts with (``greens.n_fft``, ``study.accelerations[1]``, ...).
+_LEADING_KEY = re.compile(r"^([A-Za-z_][A-Za-z0-9_.\-]*(?:\[\d+\][A-Za-z0-9_.\-]*)*)(?= = |: |\b)")
+
+
+def _set_path(node: Any, rest: str) -> tuple[bool, list[str]]:
+    """Whether ``node`` (a config file's data) sets the key path ``rest``, and the longest part it sets.
+
+    Preset names may contain dots (``tread-eta0.5``), so the path is matched against the keys the
+    data holds rather than split on dots.
+    """
+    if rest == "":
+        return True, []
+    best: tuple[bool, list[str]] = (False, [])
+    if isinstance(node, Mapping):
+        for key, value in node.items():
+            k = str(key)
+            if rest == k or rest.startswith(k + ".") or rest.startswith(k + "["):
+                sub = rest[len(k):]
+                full, parts = _set_path(value, sub[1:] if sub.startswith(".") else sub)
+                cand = (full, [k, *parts])
+                if (cand[0], len(cand[1])) > (best[0], len(best[1])):
+                    best = cand
+    elif isinstance(node, list):
+        m = re.match(r"^\[(\d+)\]\.?", rest)
+        if m and int(m.group(1)) < len(node):
+            full, parts = _set_path(node[int(m.group(1))], rest[m.end():])
+            best = (full, [f"[{m.group(1)}]", *parts])
+    return best
+
+
+def key_source(key: str, paths: Sequence[str | Path]) -> tuple[str | None, str, bool]:
+    """The config file that sets ``key`` last (later files win), or that sets the longest part of it.
+
+    Parameters
+    ----------
+    key : str
+        Key path as the error paragraphs write it (``surfaces.myroad.patch_selection``).
+    paths : sequence of path-like
+        The config files, lowest precedence first (:func:`config_file_order`).
+
+    Returns
+    -------
+    file : str or None
+        The file; None if no file sets the key or its preset (a section alone does not count).
+    part : str
+        The key path that file sets: ``key`` itself, or the preset (``surfaces.myroad``) when the key
+        is not in any file (a schema or package default).
+    full : bool
+        Whether ``file`` sets ``key`` itself.
+    """
+    found: list[tuple[bool, list[str], str]] = []
+    for path in paths:
+        try:
+            data = read_yaml(path)
+        except ConfigError:
+            continue
+        full, parts = _set_path(data, key)
+        if parts:
+            found.append((full, parts, str(path)))
+    setters = [f for f in found if f[0]]
+    if setters:
+        return setters[-1][2], key, True
+    partial = [f for f in found if len(f[1]) >= 2]
+    if not partial:
+        return None, key, False
+    depth = max(len(f[1]) for f in partial)
+    full, parts, path = [f for f in partial if len(f[1]) == depth][-1]
+    return path, _key_path_text(parts), False
+
+
+def _key_path_text(parts: Sequence[str]) -> str:
+    return "".join(p if p.startswith("[") or i == 0 else f".{p}" for i, p in enumerate(parts))
+
+
+def with_config_file(message: str, paths: Sequence[str | Path]) -> str:
+    """``message`` with the config file its leading key path comes from (see :func:`key_source`)."""
+    m = _LEADING_KEY.match(message)
+    if not m or re.split(r"[.\[]", m.group(1))[0] not in _SECTIONS:
+        return message
+    key = m.group(1).rstrip(".")
+    path, part, full = key_source(key, paths)
+    if path is None:
+        return (f"{message} [{key}: in none of the config files ({', '.join(_shown(p) for p in paths)}): "
+                f"a default or a derived preset]")
+    path = _shown(path)
+    if full:
+        return f"{message} [{key}: set in {path}]"
+    return f"{message} [{key}: not set in any config file (a default); {part} is set in {path}]"
+
+
+def _shown(path: str | Path) -> str:
+    """``path`` relative to the working directory when it lies inside it (Snakemake makes them absolute)."""
+    path = Path(path)
+    if path.is_absolute():
+        try:
+            return str(path.relative_to(Path.cwd()))
+        except ValueError:
+            return str(path)
+    return str(path)
+
+
+@contextmanager
+def naming_config_files(paths: Sequence[str | Path]):
+    """Re-raise a :class:`ConfigError` of the block with the config file its key path comes from.
+
+    Used around the planning checks of ``workflow/rules/common.smk``, with the files of
+    :func:`config_file_order`: an error paragraph about a key an overlay sets then names that
+    overlay (``[greens.n_fft: set in my.yaml]``).
+    """
+    try:
+        yield
+    except ConfigError as exc:
+        raise ConfigError(with_config_file(str(exc), paths)) from None
 
 
 # ---------------------------------------------------------------------------------------------
@@ -561,7 +715,11 @@ def check_rolling_kernel(config: Mapping[str, Any]) -> None:
 def surface_plan(name: str, spec: Mapping[str, Any], base_dir: str | Path = ".") -> dict[str, Any]:
     """Parse a surface preset as the surface stage will, and check that its patch fits.
 
-    For ``generator: file`` the scan file is checked cheaply (:func:`tyreroad.scans.check_scan_header`).
+    For ``generator: file`` the scan file is checked cheaply (:func:`tyreroad.scans.check_scan_header`);
+    a scan of at most :data:`SCAN_READ_LIMIT` bytes is read in full and, under the default
+    ``patch_selection: contact_fraction``, its patch is selected as the job will
+    (:func:`tyreroad.surface.select_patch`), so that a scan without a qualifying patch stops planning
+    with the keys to set (``surfaces.<name>.patch_selection`` or ``surfaces.<name>.origin``).
 
     Returns
     -------
@@ -574,7 +732,7 @@ def surface_plan(name: str, spec: Mapping[str, Any], base_dir: str | Path = ".")
         n = int(c["samples_per_element"])
         step = float(c["element_size"]) / n
         px, py = (int(v) for v in c["patch_elements"])
-        info = None
+        info = scan = None
         if generator in ("iso10844", "spectral"):
             cls = S.Iso10844Parameters if generator == "iso10844" else S.SpectralParameters
             params = S._preset_params(cls, name, spec, S.COMMON_KEYS)
@@ -631,6 +789,15 @@ def surface_plan(name: str, spec: Mapping[str, Any], base_dir: str | Path = ".")
                     f"a patch of at most {shape[0] // n} x {shape[1] // n} elements: it needs {need[0]} x {need[1]} "
                     f"samples at {step:.4g} m, {where} gives {have}",
                 )
+            if scan is not None and sel.origin is None and sel.rule == "contact_fraction":
+                # a scan read in full: the job's patch selection runs now, so that a scan without a
+                # qualifying patch (e.g. one exported from a study patch) stops planning, not the job
+                field = scans.to_element_grid(scan, step, (px, py), n)
+                try:
+                    S.select_patch(field, n, step, sel, preset=name)
+                except ValueError as exc:
+                    hint = S.levelled_scan_hint(name, scan_spec, base_dir, step, n, sel, str(exc))
+                    raise ConfigError(f"{exc} (scan {info['path']}){'. ' + hint if hint else ''}") from None
         return {"element_size": float(c["element_size"]), "patch_elements": (px, py), "scan": info}
     except ConfigError:
         raise

@@ -19,6 +19,7 @@ import contextlib
 import datetime as _dt
 import hashlib
 import logging
+import math
 import os
 import tempfile
 from importlib.metadata import PackageNotFoundError, version
@@ -39,6 +40,8 @@ __all__ = [
     "check_metadata",
     "is_text",
     "level_attrs",
+    "assign_compound_coords",
+    "unstack_compounds",
     "write_dataset",
     "read_dataset",
     "atomic_path",
@@ -131,6 +134,82 @@ def level_attrs(long_name: str, reference: float, reference_units: str) -> dict[
         ref = f"{mantissa}e{int(exponent)}"
     return {"units": "1", "long_name": f"{long_name} [dB re {ref} {reference_units}]",
             "level_units": "dB", "reference_value": float(reference), "reference_value_units": reference_units}
+
+
+def assign_compound_coords(ds: xr.Dataset, compounds: Mapping[str, Sequence[Any]], dim: str) -> xr.Dataset:
+    """``ds`` with the coordinates ``compound`` and ``temperature`` along ``dim``, from its ``material``.
+
+    They make temperature a dimension of the study: :func:`unstack_compounds` gives compound x temperature
+    arrays. ``ds.set_index(material=["compound", "temperature"]).unstack("material")`` does the same for
+    materials that all have a temperature; with a NaN temperature among them it silently puts values in the
+    wrong cells (xarray 2026.9 / pandas 3.1: a NaN index level), which :func:`unstack_compounds` avoids.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        A dataset with a ``material`` coordinate along ``dim`` (material preset names).
+    compounds : mapping
+        Material preset name -> ``(compound, temperature)``: the base compound's name and the
+        temperature [degC] the material runs at, None or NaN for a material without one
+        (:func:`tyreroad.material.compound_and_temperature`).
+    dim : str
+        The dimension the ``material`` coordinate lies along (``material`` or ``case``).
+
+    Returns
+    -------
+    xarray.Dataset
+        A new dataset; ``temperature`` [degC] (CF ``units: degC``) is NaN where a material has none.
+
+    Raises
+    ------
+    ValueError
+        A material of ``ds`` missing from ``compounds`` (named).
+    """
+    names = [str(m) for m in np.atleast_1d(ds["material"].values)]
+    missing = sorted(set(names) - set(compounds))
+    if missing:
+        raise ValueError(f"no compound and temperature for the material(s) {', '.join(missing)} "
+                         f"(known: {', '.join(sorted(compounds))})")
+    compound = [str(compounds[m][0]) for m in names]
+    temperature = np.array([math.nan if compounds[m][1] is None else float(compounds[m][1]) for m in names])
+    return ds.assign_coords(
+        compound=(dim, compound, {"long_name": "tread compound: the material preset, or for a temperature "
+                                               "variant <name>-T<T> the preset <name>"}),
+        temperature=(dim, temperature, {"units": "degC",
+                                        "long_name": "temperature the compound is run at (NaN: no temperature, "
+                                                     "the material has no master-curve reference)"}),
+    )
+
+
+def unstack_compounds(ds: xr.Dataset, dim: str = "material", extra: Sequence[str] = ()) -> xr.Dataset:
+    """Unstack ``dim`` into the dimensions ``compound`` and ``temperature`` [degC] (and ``extra``).
+
+    Materials without a temperature sit at ``temperature`` NaN (the first label); select them with
+    ``isel(temperature=0)`` or ``isnull()``, not ``sel(temperature=nan)``. Equivalent to
+    ``ds.set_index({dim: ["compound", "temperature", *extra]}).unstack(dim)``, which misplaces the values
+    of NaN-temperature materials (the NaN is replaced by -inf for the unstacking and restored after).
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        A study file (``dim = "case"``, usually with ``extra = ("mode", "accel")`` or one mode selected)
+        or a combined K* file (``dim = "material"``), with the coordinates of :func:`assign_compound_coords`.
+    dim : str
+        The dimension to unstack.
+    extra : sequence of str
+        Further coordinates along ``dim`` that become dimensions.
+
+    Returns
+    -------
+    xarray.Dataset
+        Missing combinations are NaN.
+    """
+    t = np.asarray(ds["temperature"].values, dtype=float)
+    attrs = dict(ds["temperature"].attrs)
+    marked = ds.assign_coords(temperature=(dim, np.where(np.isnan(t), -np.inf, t), attrs))
+    out = marked.set_index({dim: ["compound", "temperature", *extra]}).unstack(dim)
+    labels = np.asarray(out["temperature"].values, dtype=float)
+    return out.assign_coords(temperature=("temperature", np.where(np.isneginf(labels), np.nan, labels), attrs))
 
 
 def check_metadata(ds: xr.Dataset) -> None:

@@ -4,6 +4,8 @@ The stiffness-spectrum stage (:mod:`tyreroad.stiffness`) writes one file per mat
 the configured preloads only. This module turns those files into what a tyre/road model reads:
 
 * :func:`combine_spectra` — one dataset with a ``material`` dimension (``results/stiffness_spectrum.nc``).
+* :func:`open_material` — one material's K* from the combined file, or from its per-material file when
+  the combined file is absent (saying which file it read).
 * :func:`at_preload` — K′, K″, |K*| and the loss factor at any preload d0 inside the computed range.
   **Interpolation:** K′ and K″ are each interpolated *linearly in d0* between the two neighbouring
   computed preloads, frequency by frequency; |K*| and the loss factor are then formed from the
@@ -29,6 +31,7 @@ from __future__ import annotations
 import io as _io
 import math
 import re
+from pathlib import Path
 from typing import Sequence
 
 import numpy as np
@@ -37,6 +40,7 @@ import xarray as xr
 __all__ = [
     "parse_length",
     "combine_spectra",
+    "open_material",
     "at_preload",
     "third_octave_bands",
     "nominal_third_octave",
@@ -145,6 +149,74 @@ def combine_spectra(spectra: Sequence[xr.Dataset]) -> xr.Dataset:
     return out
 
 
+def open_material(results: str | Path, material: str, surface: str = "iso10844") -> tuple[xr.Dataset, str]:
+    """One material's stiffness spectrum, from the combined file ``<results>/stiffness_spectrum.nc``.
+
+    The combined file (rule ``stiffness_combined``: the study's materials with a ``material``
+    dimension) is read when it exists; only when it does not is the per-material file
+    ``<results>/stiffness_spectrum/<surface>/<material>.nc`` read. The returned note says which file
+    was read, and why, for the caller to show; there is no silent fallback: a combined file without
+    the material (or of another surface) is an error that names the file, its materials and the
+    per-material file if there is one.
+
+    Parameters
+    ----------
+    results : path-like
+        The results folder.
+    material : str
+        Material preset name.
+    surface : str
+        The study surface (the per-material files' folder; checked against the combined file's
+        ``surface`` attribute).
+
+    Returns
+    -------
+    dataset : xarray.Dataset
+        Dims (preload [m], frequency [Hz]); attributes ``material``, ``surface`` and ``source_file`` (the
+        file read).
+    note : str
+        ``read K* of <material> from <file> (...)``; it also says when a per-material file is newer than
+        the combined one (the combined file is then stale).
+
+    Raises
+    ------
+    FileNotFoundError
+        Neither file exists (with the command that makes the combined file).
+    ValueError
+        The combined file lacks the material or is of another surface.
+    """
+    from . import io
+
+    combined = Path(results) / "stiffness_spectrum.nc"
+    single = Path(results) / "stiffness_spectrum" / surface / f"{material}.nc"
+    if not combined.is_file():
+        if not single.is_file():
+            raise FileNotFoundError(
+                f"{combined}: no combined K* file, and {single}: no K* file for material {material!r} on surface "
+                f"{surface!r}; make them with: tyreroad run {combined.as_posix()} (the study's materials) or "
+                f"tyreroad run {single.as_posix()}")
+        ds = io.read_dataset(single)
+        ds.attrs["source_file"] = str(single)
+        return ds, f"read K* of {material} from the per-material file {single} ({combined} is absent)"
+    ds = io.read_dataset(combined)
+    names = [str(m) for m in np.atleast_1d(ds["material"].values)]
+    there = f"; {single} exists: read it with --file {single.as_posix()}" if single.is_file() else ""
+    have = str(ds.attrs.get("surface", ""))
+    if have and have != surface:
+        raise ValueError(f"{combined}: the combined K* file is of surface {have!r}, not {surface!r}{there}")
+    if material not in names:
+        raise ValueError(f"{combined}: material {material!r} is not in the combined K* file (materials: "
+                         f"{', '.join(names)}); it holds the study's materials (study.materials){there}")
+    one = ds.sel(material=material)
+    one = one.drop_vars([c for c in ("material", "compound", "temperature") if c in one.coords])
+    one.attrs = {**ds.attrs, "material": material, "surface": have or surface, "source_file": str(combined)}
+    note = f"read K* of {material} from the combined file {combined}"
+    if single.is_file() and single.stat().st_mtime > combined.stat().st_mtime:
+        note += (f"; note: {single} is newer than the combined file, which may be stale: "
+                 f"tyreroad run {combined.as_posix()} updates it")
+    return one, note
+
+
 # --------------------------------------------------------------------------------------------
 # any preload
 # --------------------------------------------------------------------------------------------
@@ -168,7 +240,8 @@ def at_preload(ds: xr.Dataset, preload: float) -> xr.Dataset:
     xarray.Dataset
         Dim frequency [Hz]; for each state the file carries (``relaxed``, ``transient``) the variables
         ``storage_<state>``, ``loss_<state>``, ``magnitude_<state>`` [N/m] and ``loss_factor_<state>`` [1];
-        attributes ``preload`` [m], ``interpolation`` (how the value was formed) and ``material``.
+        attributes ``preload`` [m], ``interpolation`` (how the value was formed), ``material``, ``surface``
+        and ``source`` (the file read, from ``ds.attrs["source_file"]`` when :func:`open_material` set it).
 
     Raises
     ------
@@ -203,7 +276,7 @@ def at_preload(ds: xr.Dataset, preload: float) -> xr.Dataset:
         l = (1 - w) * k2[i] + w * k2[j]
         _put_state(out, state, s, l, "frequency")
     out.attrs = {"preload": d0, "interpolation": how, "material": str(ds.attrs.get("material", "")),
-                 "surface": str(ds.attrs.get("surface", ""))}
+                 "surface": str(ds.attrs.get("surface", "")), "source": str(ds.attrs.get("source_file", ""))}
     return out
 
 
@@ -299,7 +372,7 @@ def to_csv(table: xr.Dataset) -> str:
     header = [f"{c}{suffix.get(table[c].attrs.get('units'), '')}" for c in coords]
     header += [f"{v}{suffix.get(table[v].attrs.get('units'), '')}" for v in variables]
     buf = _io.StringIO()
-    for key in ("material", "surface", "preload", "interpolation", "band_value"):
+    for key in ("material", "surface", "source", "preload", "interpolation", "band_value"):
         if key in table.attrs and str(table.attrs[key]):
             value = table.attrs[key]
             text = f"{float(value):.6g} m" if key == "preload" else str(value)

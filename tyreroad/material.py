@@ -109,6 +109,7 @@ __all__ = [
     "read_dma_table",
     "temperature_variant_name",
     "expand_temperatures",
+    "compound_and_temperature",
     "GAS_CONSTANT",
 ]
 
@@ -821,6 +822,51 @@ def _resolve(name, section, chain):
         return (root, loss * l_base, dens * d_base, (a_base if anchor is None else anchor), mod * m_base,
                 (name,) + lineage)
     return cfg, loss, dens, anchor, mod, (name,)
+
+
+def compound_and_temperature(name: str, materials: Mapping[str, Any]) -> tuple[str, float]:
+    """The compound a material preset is and the temperature it runs at: the study's dimensions.
+
+    A temperature variant (a preset that sets only ``base`` and ``temperature``, as
+    :func:`expand_temperatures` writes them) is its base compound at another temperature; every other
+    preset is a compound of its own (a loss or density variant changes the material, not its
+    temperature). The temperature is the one the preset's ``table`` master curve is run at
+    (:func:`material_from_config`: the nearest ``temperature`` in the base chain, else the
+    ``reference_temperature``); a preset without a reference temperature has none (NaN). The table
+    file is not read.
+
+    Parameters
+    ----------
+    name : str
+        Material preset name.
+    materials : mapping
+        The ``materials`` section (temperature variants expanded).
+
+    Returns
+    -------
+    compound : str
+        ``name``, or for a temperature variant its base's compound.
+    temperature : float
+        Study temperature [degC]; NaN for a preset without one.
+
+    Raises
+    ------
+    ValueError
+        Naming ``materials.<name>``: unknown preset or base, cyclic base chain.
+    """
+    root, _, _, _, _, lineage = _resolve(name, materials, ())
+    compound = name
+    while set(materials[compound]) <= {"base", "temperature"} and "base" in materials[compound] \
+            and "temperature" in materials[compound]:
+        compound = materials[compound]["base"]
+    temperature = math.nan
+    if root.get("model") == "table" and "reference_temperature" in root:
+        temperature = root.get("temperature", root["reference_temperature"])
+        for preset in lineage[:-1]:
+            if "temperature" in materials[preset]:
+                temperature = materials[preset]["temperature"]
+                break
+    return compound, float(temperature)
 
 
 def _check_phase_scaling(name, model, loss_scale: float) -> None:

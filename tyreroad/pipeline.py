@@ -11,6 +11,7 @@ Outputs are written atomically (see :mod:`tyreroad.io`): if a stage fails, no re
 from __future__ import annotations
 
 import logging
+import math
 from pathlib import Path
 from typing import Any, Mapping, Sequence
 
@@ -356,14 +357,45 @@ def run_contact(
     )
 
 
+def material_compounds(names: Sequence[str], materials: Mapping[str, Any]) -> dict[str, list]:
+    """Compound and temperature of each material, as the study and combined K* files record them.
+
+    Parameters
+    ----------
+    names : sequence of str
+        Material preset names (the study's).
+    materials : mapping
+        The ``materials`` config section (temperature variants expanded).
+
+    Returns
+    -------
+    dict
+        Name -> ``[compound, temperature]``, temperature [degC] or None for a material without one
+        (None, not NaN: Snakemake compares a rule's params between runs, and NaN != NaN).
+    """
+    from .material import compound_and_temperature
+
+    out = {}
+    for name in names:
+        compound, temperature = compound_and_temperature(name, materials)
+        out[name] = [compound, None if math.isnan(temperature) else temperature]
+    return out
+
+
 def run_study(
-    contact_ncs: Sequence[str | Path], study_cfg: Mapping[str, Any], d_max: float, out_nc: str | Path
+    contact_ncs: Sequence[str | Path], study_cfg: Mapping[str, Any], d_max: float, out_nc: str | Path,
+    compounds: Mapping[str, Sequence[Any]] | None = None,
 ) -> None:
-    """Stage ``study``: all runs on one indentation grid, with stiffness and K_sat per case."""
+    """Stage ``study``: all runs on one indentation grid, with stiffness and K_sat per case.
+
+    ``compounds`` (:func:`material_compounds`) adds the case coordinates ``compound`` and
+    ``temperature`` [degC] (:func:`tyreroad.io.assign_compound_coords`)."""
     from .study import StudySettings, aggregate
 
     settings = StudySettings.from_config(study_cfg, d_max=d_max)
     ds = aggregate([io.read_dataset(p) for p in contact_ncs], settings)
+    if compounds is not None:
+        ds = io.assign_compound_coords(ds, compounds, "case")
     io.write_dataset(ds, out_nc, {"study": dict(study_cfg), "d_max": d_max}, stage="study")
 
 
@@ -600,11 +632,18 @@ def run_stiffness_figure(
         plot_stiffness_spectrum(spectra, reference, variants, figure_preload, tmp)
 
 
-def run_stiffness_combined(spectra_ncs: Sequence[str | Path], out_nc: str | Path) -> None:
-    """``results/stiffness_spectrum.nc``: the study materials' K*(f; d0) in one file with a material dimension."""
+def run_stiffness_combined(spectra_ncs: Sequence[str | Path], out_nc: str | Path,
+                           compounds: Mapping[str, Sequence[Any]] | None = None) -> None:
+    """``results/stiffness_spectrum.nc``: the study materials' K*(f; d0) in one file with a material dimension.
+
+    ``compounds`` (:func:`material_compounds`) adds the material coordinates ``compound`` and
+    ``temperature`` [degC], so that ``ds.set_index(material=["compound", "temperature"]).unstack("material")``
+    gives compound x temperature arrays."""
     from .kstar import combine_spectra
 
     ds = combine_spectra([io.read_dataset(p) for p in spectra_ncs])
+    if compounds is not None:
+        ds = io.assign_compound_coords(ds, compounds, "material")
     io.write_dataset(ds, out_nc, {"stiffness_spectra": [str(p) for p in spectra_ncs]}, stage="stiffness_combined")
 
 

@@ -53,6 +53,7 @@ import xarray as xr
 from . import io
 from .contact import contact_dataset, solve_run
 from .greens import GreensSettings
+from .log import Progress
 from .material import material_from_config
 from .pipeline import build_greens, resolved_material_config
 from .report.claims import CLAIMS, THRESHOLDS, ClaimContext
@@ -81,6 +82,7 @@ __all__ = [
     "scale_moduli",
     "measure_claims",
     "run_point",
+    "PointProgress",
     "combine_points",
     "conclusions",
     "sensitivity_markdown",
@@ -320,6 +322,62 @@ def point_settings(sensitivity_cfg: Mapping[str, Any], name: str, point: Mapping
 # --------------------------------------------------------------------------------------------------
 # one point
 # --------------------------------------------------------------------------------------------------
+#: Runs of a point after its calibration: the loss variants, the density variant and the quasi-static run.
+_VARIANT_RUNS = len(VARIANTS) - 1
+
+
+class PointProgress:
+    """Progress of one sweep point's contact runs: after each run a log line with the time left.
+
+    A point runs its calibration (1 run without ``calibrate``, else until K_sat is within the
+    tolerance, at most ``max_calibration_runs``) and then :data:`_VARIANT_RUNS` variant runs. Until the
+    calibration has converged the total is an estimate (written ``~``): two calibration runs (the first
+    run and one proportional step), one more for each further step; the time left is the rate estimate
+    of :class:`tyreroad.log.Progress` (runs are taken as equally long; the first also builds the
+    springs and Green's functions, so early estimates are high).
+
+    Parameters
+    ----------
+    point : str
+        Point name (in every line).
+    calibrate : bool
+        Whether the point calibrates its moduli.
+    clock : callable, optional
+        Monotonic clock [s] (tests pass a fake one).
+    """
+
+    def __init__(self, point: str, calibrate: bool, clock=None) -> None:
+        self.point = point
+        self.calibrating = bool(calibrate)
+        self.done = 0
+        self.progress = Progress((2 if calibrate else 1) + _VARIANT_RUNS, interval=0.0, clock=clock)
+
+    @property
+    def total(self) -> int:
+        """Runs of the point, as far as known (an estimate while calibrating)."""
+        return self.progress.total
+
+    def calibration_step(self, runs: int) -> None:
+        """Calibration run number ``runs`` (1-based) is about to start: the total counts at least it."""
+        self.progress.total = max(self.progress.total, runs + _VARIANT_RUNS)
+
+    def calibrated(self, runs: int) -> None:
+        """The calibration ended after ``runs`` runs: the total is now exact."""
+        self.calibrating = False
+        self.progress.total = runs + _VARIANT_RUNS
+
+    def run_done(self, label: str) -> str:
+        """Log (INFO) and return the line for a finished run, e.g.
+        ``point soft: run 3 of ~6 done (calibration 3, dynamic a=500), elapsed 1 min 10 s, about 2 min 20 s left``."""
+        self.done += 1
+        self.progress.total = max(self.progress.total, self.done)
+        approx = "~" if self.calibrating else ""
+        line = (f"point {self.point}: run {self.done} of {approx}{self.progress.total} done ({label}), "
+                f"{self.progress.status(self.done)}")
+        logger.info(line)
+        return line
+
+
 class _Runner:
     """Runs the stage functions for one surface; caches springs and Green's functions per material.
 
@@ -338,6 +396,7 @@ class _Runner:
         self.element_size = float(surface.attrs["element_size"])
         self._cache: dict[str, tuple] = {}
         self.runs = 0
+        self.progress: PointProgress | None = None
 
     def stages(self, name: str, preset: Mapping[str, Any]):
         key = io.config_yaml(dict(preset))
@@ -353,8 +412,10 @@ class _Runner:
             self._cache[key] = (material, springs, greens)
         return self._cache[key]
 
-    def run(self, name: str, preset: Mapping[str, Any], mode: str, accel: float) -> dict[str, Any]:
-        """One contact run; K(d), contact fraction on the grid and K_sat, as the study computes them."""
+    def run(self, name: str, preset: Mapping[str, Any], mode: str, accel: float, label: str = "") -> dict[str, Any]:
+        """One contact run; K(d), contact fraction on the grid and K_sat, as the study computes them.
+
+        ``label`` names the run in the progress line (default: ``name``)."""
         material, springs, greens = self.stages(name, preset)
         res = solve_run(self.surface, springs, greens, material, mode, accel, self.solver, self.threads)
         self.runs += 1
@@ -363,6 +424,8 @@ class _Runner:
         k = curves["stiffness"]
         ksat = saturated_stiffness(self.study.grid, k, self.study.saturation_range)
         logger.info("%s %s a=%g: K_sat = %.4g N/m", name, mode, accel, ksat)
+        if self.progress is not None:
+            self.progress.run_done(f"{label or name}, {mode} a={accel:g}")
         return {"stiffness": k, "contact_fraction": curves["contact_fraction"], "ksat": ksat, "material": material}
 
 
@@ -372,13 +435,16 @@ def _calibrate(runner: _Runner, name: str, preset: Mapping[str, Any], settings: 
     a, target = settings.acceleration, settings.target_stiffness
     factor = 1.0
     history: list[tuple[float, float]] = []
-    out = runner.run(name, scale_moduli(preset, factor), "dynamic", a)
+    progress = getattr(runner, "progress", None)
+    out = runner.run(name, scale_moduli(preset, factor), "dynamic", a, label="calibration 1")
     history.append((factor, out["ksat"]))
     while calibrate and abs(out["ksat"] / target - 1) > settings.calibration_tolerance:
         if len(history) >= settings.max_calibration_runs:
             logger.warning("point %s: calibration stopped after %d runs at K_sat = %.4g N/m (target %.4g)",
                            name, len(history), out["ksat"], target)
             break
+        if progress is not None:
+            progress.calibration_step(len(history) + 1)
         if len(history) == 1:
             factor = factor * target / out["ksat"]  # K proportional to the modulus (exact quasi-statically)
         else:
@@ -387,8 +453,10 @@ def _calibrate(runner: _Runner, name: str, preset: Mapping[str, Any], settings: 
             if not (math.isfinite(slope) and slope > 0.1):
                 slope = 1.0
             factor = s2 * math.exp((math.log(target) - math.log(k2)) / slope)
-        out = runner.run(name, scale_moduli(preset, factor), "dynamic", a)
+        out = runner.run(name, scale_moduli(preset, factor), "dynamic", a, label=f"calibration {len(history) + 1}")
         history.append((factor, out["ksat"]))
+    if progress is not None:
+        progress.calibrated(len(history))
     return factor, out, history
 
 
@@ -486,6 +554,7 @@ def run_point(
     study_cfg: Mapping[str, Any],
     settings: SensitivitySettings,
     threads: int = 1,
+    clock=None,
 ) -> xr.Dataset:
     """Run and measure one point of the sweep.
 
@@ -507,6 +576,8 @@ def run_point(
         The sweep settings.
     threads : int
         numba threads of the contact solver.
+    clock : callable, optional
+        Monotonic clock [s] of the progress lines (:class:`PointProgress`; default ``time.monotonic``).
 
     Returns
     -------
@@ -522,16 +593,19 @@ def run_point(
     spec = point_surface_spec(surface_spec, point.get("surface", {}))
     surface = prepare_surface(f"sensitivity-{name}", spec)
     runner = _Runner(f"sensitivity-{name}", surface, springs_cfg, greens_cfg, solver_cfg, study, threads)
+    calibrate = bool(point.get("calibrate", True))
+    runner.progress = PointProgress(name, calibrate, clock=clock)  # a line with the time left after each run
 
-    factor, ref, history = _calibrate(runner, name, preset, settings, bool(point.get("calibrate", True)))
+    factor, ref, history = _calibrate(runner, name, preset, settings, calibrate)
     cal = scale_moduli(preset, factor)
     lo_s, hi_s = settings.loss_scales
     runs = {"reference": ref}
     for label, scale in (("eta-low", lo_s), ("eta-high", hi_s)):
-        runs[label] = runner.run(name, loss_variant_preset(cal, scale, settings), "dynamic", settings.acceleration)
+        runs[label] = runner.run(name, loss_variant_preset(cal, scale, settings), "dynamic", settings.acceleration,
+                                 label=label)
     runs["rho-high"] = runner.run(name, dict(cal, density=float(cal["density"]) * settings.density_scale), "dynamic",
-                                  settings.acceleration)
-    runs["quasistatic"] = runner.run(name, cal, "quasistatic", 0.0)
+                                  settings.acceleration, label="rho-high")
+    runs["quasistatic"] = runner.run(name, cal, "quasistatic", 0.0, label="reference")
 
     ksat = {v: runs[v]["ksat"] for v in VARIANTS}
     k_ref = ksat["reference"]

@@ -83,6 +83,7 @@ __all__ = [
     "element_peaks",
     "select_patch",
     "prepare_surface",
+    "levelled_scan_hint",
     "surface_dataset",
     "COMMON_KEYS",
 ]
@@ -597,7 +598,7 @@ def element_peaks(height: np.ndarray, samples_per_element: int, step: float):
 
 
 def select_patch(
-    height: np.ndarray, samples_per_element: int, step: float, selection: PatchSelection
+    height: np.ndarray, samples_per_element: int, step: float, selection: PatchSelection, preset: str = ""
 ) -> tuple[int, int, float]:
     """Choose the patch origin (sample indices) by the rule in the module docstring.
 
@@ -611,6 +612,9 @@ def select_patch(
         Sample step [m].
     selection : PatchSelection
         Rule and parameters.
+    preset : str
+        Surface preset name; when given, the error of the contact-fraction rule names the keys to set
+        as full key paths (``surfaces.<preset>.patch_selection``, ``surfaces.<preset>.origin``).
 
     Returns
     -------
@@ -671,11 +675,13 @@ def select_patch(
     best = float(frac[ci, cj])
     lo, hi = selection.fraction_range
     if not lo <= best <= hi:
+        key = f"surfaces.{preset}." if preset else ""
         raise ValueError(
-            f"no {px} x {py}-element patch has {lo:.0%}-{hi:.0%} of its element peaks within "
-            f"{selection.fraction_depth * 1e3:g} mm of its top (closest to the target: {best:.1%}; "
-            f"range over all candidates {frac.min():.1%}-{frac.max():.1%}); set 'origin' or "
-            f"'patch_selection: centre', widen 'fraction_range', or change the surface"
+            f"{key}patch_selection = 'contact_fraction': no {px} x {py}-element patch has {lo:.0%}-{hi:.0%} "
+            f"of its element peaks within {selection.fraction_depth * 1e3:g} mm of its top (closest to the "
+            f"target {selection.target_fraction:.0%}: {best:.1%}; range over all {frac.size} candidates "
+            f"{frac.min():.1%}-{frac.max():.1%}). A small scan often has no such patch: set '{key}patch_selection: centre' (the patch nearest the field centre) or "
+            f"'{key}origin: [x, y]' (m, the patch's corner), or widen '{key}fraction_range'"
         )
     logger.info("patch: %d candidates, chose element origin (%d, %d) with %.1f %% of peaks within %.3g mm",
                 frac.size, ci, cj, 100 * best, selection.fraction_depth * 1e3)
@@ -801,7 +807,59 @@ def prepare_surface(name: str, spec: Mapping, base_dir: str | Path = ".") -> xr.
         scan = scans.read_scan(scan_spec, base_dir=base_dir)
         field_h = scans.to_element_grid(scan, step, selection.patch_elements, n)
         source = str(scan.path)
+        try:
+            return surface_dataset(name, field_h, step, n, selection, source=source)
+        except ValueError as exc:
+            hint = levelled_scan_hint(name, scan_spec, base_dir, step, n, selection, str(exc))
+            if hint:
+                raise ValueError(f"{exc}. {hint}") from None
+            raise
     return surface_dataset(name, field_h, step, n, selection, source=source)
+
+
+def levelled_scan_hint(name: str, scan_spec: "scans.ScanSpec", base_dir: str | Path, step: float, n: int,
+                       selection: PatchSelection, message: str) -> str:
+    """Whether a scan that failed the contact-fraction rule after ``detrend: plane`` passes it as read.
+
+    Removing the least-squares plane of a small, already levelled scan (e.g. a patch exported from a
+    study) tilts its element peaks: the default patch exported and read back has 51 % of its peaks
+    within 0.15 mm of the top as written, 1.5 % after the plane is removed. The hint tells the user
+    so, with the fraction the heights as read would give.
+
+    Parameters
+    ----------
+    name : str
+        Surface preset name.
+    scan_spec : tyreroad.scans.ScanSpec
+        The preset's scan settings.
+    base_dir : path-like
+        Directory of relative scan paths.
+    step : float
+        Element grid step [m].
+    n : int
+        Samples per element edge.
+    selection : PatchSelection
+        The preset's patch selection.
+    message : str
+        The selection error; only a contact-fraction failure gets a hint.
+
+    Returns
+    -------
+    str
+        The hint ('' when the detrending is not the cause, or the scan is not plane-detrended).
+    """
+    if scan_spec.detrend != "plane" or "patch_selection = 'contact_fraction'" not in message:
+        return ""
+    from dataclasses import replace
+
+    raw = scans.read_scan(replace(scan_spec, detrend="none"), base_dir=base_dir)
+    try:
+        _, _, frac = select_patch(scans.to_element_grid(raw, step, selection.patch_elements, n), n, step, selection)
+    except ValueError:
+        return ""
+    return (f"The plane removal is the cause (detrend: plane, the default): the heights as they are in the file "
+            f"have a patch with {frac:.1%}. If they are already levelled (e.g. a patch exported from a study), "
+            f"set 'surfaces.{name}.detrend: none'")
 
 
 def surface_dataset(
@@ -852,7 +910,7 @@ def surface_dataset(
     skew = skewness(h) if rms > 0 else float("nan")  # a flat road (generator flat) has no skewness
     wl, level = texture_level_spectrum(h, step)
 
-    i0, j0, frac = select_patch(h, n, step, selection)
+    i0, j0, frac = select_patch(h, n, step, selection, preset=name)
     px, py = (int(v) for v in selection.patch_elements)
     patch = np.ascontiguousarray(h[i0 : i0 + px * n, j0 : j0 + py * n])
     z1, peak_x, peak_y = element_peaks(patch, n, step)

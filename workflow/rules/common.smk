@@ -13,23 +13,29 @@ from tyreroad.config import (
     check_config_files,
     check_job,
     check_rolling_kernel,
+    config_file_order,
     expand_material_temperatures,
+    naming_config_files,
     rolling_materials,
     sensitivity_points,
     validate_schema,
 )
+from tyreroad.pipeline import material_compounds as _material_compounds
 from tyreroad.pipeline import material_variants as _material_variants
 from tyreroad.pipeline import resolved_material_config as _resolved_material_config
 from tyreroad.pipeline import spring_material_inputs as _spring_material_inputs
 from tyreroad.provenance import STAGE_MODULES, source_hash
 
 SCHEMA = Path(workflow.current_basedir) / "../schemas/config.schema.yaml"
+# the config files in the order their keys apply: an error about a key names the file that set it
+CONFIG_FILES = config_file_order(workflow.configfiles, workflow.overwrite_configfiles)
 check_config_files(workflow.configfiles)  # duplicate keys are errors (YAML keeps the last silently)
-validate_schema(config, SCHEMA)
-# a table preset's `temperatures: [T, ...]` become the base: variants <name>-T<T> (tyreroad.config)
-config["materials"] = expand_material_temperatures(config)["materials"]
-validate(config, "../schemas/config.schema.yaml")  # inserts the schema's defaults
-check_config(config)
+with naming_config_files(CONFIG_FILES):
+    validate_schema(config, SCHEMA)
+    # a table preset's `temperatures: [T, ...]` become the base: variants <name>-T<T> (tyreroad.config)
+    config["materials"] = expand_material_temperatures(config)["materials"]
+    validate(config, "../schemas/config.schema.yaml")  # inserts the schema's defaults
+    check_config(config)
 
 
 wildcard_constraints:
@@ -68,6 +74,8 @@ localrules:
 R = config["results_dir"]
 STUDY = config["study"]
 STUDY_SURFACE = STUDY["surface"]
+# compound and temperature [degC] of each study material: coordinates of study.nc and stiffness_spectrum.nc
+STUDY_COMPOUNDS = _material_compounds(STUDY["materials"], config["materials"])
 
 # Hash of the tyreroad source each stage runs (tyreroad.provenance.STAGE_MODULES): a rule's params
 # carry it, so a change in the package re-plans exactly the stages whose code changed.
@@ -95,7 +103,8 @@ def checked(wildcards):
     (nor compare) params of functions that take input or output.
     """
     w = dict(wildcards)
-    check_job(config, _TARGET_OF[tuple(sorted(w))].format(**w), w)
+    with naming_config_files(CONFIG_FILES):
+        check_job(config, _TARGET_OF[tuple(sorted(w))].format(**w), w)
 
 
 def fmt_accel(accel):

@@ -4,7 +4,8 @@
 from tyreroad.sensitivity import point_files as _point_files
 
 # planning-time checks (tyreroad.config.sensitivity_points): the section, every point's material and surface preset
-SENSITIVITY_POINTS = sensitivity_points(config, SCHEMA)
+with naming_config_files(CONFIG_FILES):
+    SENSITIVITY_POINTS = sensitivity_points(config, SCHEMA)
 # the section without its points: changing one point re-runs that point only
 SENSITIVITY_GLOBALS = {k: v for k, v in config.get("sensitivity", {}).items() if k != "points"}
 

@@ -56,6 +56,7 @@ rule stiffness_combined:
     log:
         f"{R}/logs/stiffness_combined.log",
     params:
+        compounds=STUDY_COMPOUNDS,
         code=SOURCE["stiffness_combined"],
     threads: 1
     script:

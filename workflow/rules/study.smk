@@ -8,6 +8,7 @@ rule study:
     params:
         study=STUDY,
         d_max=config["solver"]["d_max"],
+        compounds=STUDY_COMPOUNDS,
         code=SOURCE["study"],
     threads: 1
     script:

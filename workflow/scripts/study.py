@@ -9,4 +9,5 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
 from tyreroad import log, pipeline
 
 log.configure(snakemake.log[0])
-pipeline.run_study(snakemake.input.runs, snakemake.params.study, snakemake.params.d_max, snakemake.output.nc)
+pipeline.run_study(snakemake.input.runs, snakemake.params.study, snakemake.params.d_max, snakemake.output.nc,
+                   compounds=snakemake.params.compounds)
