@@ -174,7 +174,8 @@ def rolling_greens_elements(wildcards):
     """The rolling greens' table size (the largest strip), after checking that the kernel can take it: called
     while the rolling jobs are planned, so a strip too large for the Radau kernel stops `snakemake -n rolling`."""
     checked(wildcards)
-    check_rolling_kernel(config)
+    with naming_config_files(CONFIG_FILES):
+        check_rolling_kernel(config)
     return max_patch_elements(rolling=True)
 
 
