@@ -301,7 +301,9 @@ def test_rolling_materials_default_to_the_study_and_its_first():
 # --------------------------------------------------------------------------------------------
 #: The targets each shipped overlay documents (its header's snakemake command); () is the default target.
 OVERLAY_TARGETS = {"test.yaml": (), "footprint.yaml": (), "rolling-flat.yaml": ("rolling",), "springs-qlv.yaml": (),
-                   "compound-temperature.yaml": ()}
+                   "compound-temperature.yaml": (), "rolling-narrow.yaml": ("rolling",), "rolling-qlv.yaml": ("rolling",)}
+#: Overlays documented on top of others (their header's command): those come first.
+OVERLAY_BASES = {"rolling-qlv.yaml": ("rolling-narrow.yaml",)}
 _SURFACES_DONE: dict = {}  # surface specs already run, across overlays (YAML text -> heights)
 
 
@@ -316,7 +318,8 @@ def test_every_shipped_overlay_runs_its_surfaces_and_plans_the_rest(overlay, tmp
     them (schema defaults filled in, as Snakemake does), and its documented target plans."""
     from tyreroad.surface import prepare_surface
 
-    cfg = load_config(ROOT / "config" / "config.yaml", ROOT / "config" / overlay)
+    files = [*OVERLAY_BASES.get(overlay, ()), overlay]
+    cfg = load_config(ROOT / "config" / "config.yaml", *(ROOT / "config" / f for f in files))
     validate(cfg, SCHEMA)  # fills in the schema's defaults, as the workflow does
     used = {cfg["study"]["surface"]}
     if "rolling" in OVERLAY_TARGETS[overlay]:
@@ -331,7 +334,7 @@ def test_every_shipped_overlay_runs_its_surfaces_and_plans_the_rest(overlay, tmp
     _synthetic.copy_workflow(tmp_path)
     # targets before --configfile: its list of files would take them for config files
     proc = subprocess.run([sys.executable, "-m", "snakemake", "-n", "-j2", *OVERLAY_TARGETS[overlay],
-                           "--configfile", "config/config.yaml", f"config/{overlay}"],
+                           "--configfile", "config/config.yaml", *(f"config/{f}" for f in files)],
                           cwd=tmp_path, capture_output=True, text=True, timeout=600)
     assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-3000:]
     assert "prepare_surface" in proc.stdout + proc.stderr

@@ -68,8 +68,11 @@ def workdir(tmp_path_factory):
         (wd / "results" / rel).parent.mkdir(parents=True, exist_ok=True)
         (wd / "results" / rel).write_bytes(rng.bytes(512))
     default_before = _digest(wd / "results")
-    proc = _snakemake(wd)
+    # the study runs through the user's command (README): `tyreroad run -c config/test.yaml`, in a fresh copy
+    proc = subprocess.run([sys.executable, "-m", "tyreroad.cli", "run", "-c", "config/test.yaml", "-j", "2"], cwd=wd,
+                          capture_output=True, text=True)
     assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-6000:]
+    assert "$ snakemake -j 2 --configfile config/config.yaml config/test.yaml" in proc.stderr
     _DEFAULT_BEFORE[wd] = default_before
     return wd
 

@@ -63,6 +63,7 @@ rule construction_study:
     params:
         study=STUDY,
         d_max=config["solver"]["d_max"],
+        compounds=STUDY_COMPOUNDS,  # the same coordinates as the study's own study.nc
         code=SOURCE["study"],
     threads: 1
     script:
