@@ -334,9 +334,16 @@ def test_aggregate_and_report_section():
     md = build_rolling_report(agg, figures=["figures/fig11_rolling_force.png", "figures/fig14_contact_map.png"])
     assert "![fig14_contact_map](figures/fig14_contact_map.png)" in md
     assert md.index("## Figures") < md.index("## Config")
+    # what the passes ran on travels into rolling.nc when they agree, and is flagged when they do not
+    tagged = [r.copy() for r in runs]
+    for r in tagged:
+        r.attrs.update(spring_rheology="qlv", kernel_construction="radau")
+    assert aggregate_rolling(tagged).attrs["spring_rheology"] == "qlv"
+    tagged[0].attrs["spring_rheology"] = "elastic"
+    assert aggregate_rolling(tagged).attrs["spring_rheology"] == "mixed: elastic, qlv"
     # the QLV-springs comparison (issue 24): matched pass by pass, the ratio of the steady loss forces
     qlv = agg.copy(deep=True)
-    qlv.attrs["config"] = "springs:\n  rheology: qlv\n"
+    qlv.attrs["spring_rheology"] = "qlv"
     qlv["steady_loss_force"] = qlv["steady_loss_force"] * 1.5 + 1e-3
     qlv["mode"] = ("case", np.array(["dynamic", "quasistatic"]))
     agg2 = agg.copy()
@@ -344,7 +351,7 @@ def test_aggregate_and_report_section():
     section = "\n".join(rolling_spring_comparison_section(
         ReportContext(rolling=qlv, rolling_reference=agg2, rolling_reference_label="results-elastic")))
     ratio = (1.5 * float(agg["steady_loss_force"][0]) + 1e-3) / float(agg["steady_loss_force"][0])
-    assert "springs are `qlv`, those of `results-elastic` `elastic`" in section
+    assert "springs are `qlv`, those of `results-elastic` `elastic (not recorded)`" in section
     assert f"| tread | dynamic | 5 |" in section and f"| {ratio:.3f} |" in section
     assert f"{ratio:.3f}-{ratio:.3f} times" in section  # only the dynamic pass counts in the summary
     missing = rolling_spring_comparison_section(ReportContext(rolling=qlv, rolling_reference_label="results-elastic"))

@@ -691,6 +691,9 @@ def run_rolling(
     surface, springs, greens = _solver_inputs(surface_nc, springs_nc, greens_nc)
     result, info = solve_rolling_run(surface, springs, greens, mode, float(speed), settings, solver, threads)
     ds = rolling_dataset(result, info, mode, float(speed), settings, surface, surface_name, material_name)
+    # what the pass ran on (the rolling report compares spring laws and kernels by these)
+    ds.attrs["spring_rheology"] = str(springs.attrs.get("spring_rheology", "elastic"))
+    ds.attrs["kernel_construction"] = str(greens.attrs.get("construction", "unknown"))
     provenance = {"rolling": dict(rolling_cfg), "solver": dict(solver_cfg)}
     io.write_dataset(ds, out_nc, provenance, stage="rolling_run", surface=surface_name, material=material_name,
                      mode=mode)

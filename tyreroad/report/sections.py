@@ -897,11 +897,9 @@ def config_section(ctx: ReportContext) -> list[str]:
 
 
 def _springs_rheology(study: xr.Dataset) -> str:
-    """``springs.rheology`` of the config a rolling study was made with (``elastic`` when not set)."""
-    import yaml
-
-    config = yaml.safe_load(str(study.attrs.get("config", ""))) or {}
-    return str((config.get("springs") or {}).get("rheology", "elastic"))
+    """The contact springs' rheology a rolling study's passes ran with (its ``spring_rheology`` attribute, from
+    the springs files; a study written before the attribute existed: ``elastic (not recorded)``)."""
+    return str(study.attrs.get("spring_rheology", "elastic (not recorded)"))
 
 
 def rolling_spring_comparison_section(ctx: ReportContext) -> list[str]:

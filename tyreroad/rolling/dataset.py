@@ -225,4 +225,8 @@ def aggregate_rolling(runs: Sequence[xr.Dataset], band_limits=(100.0, 5000.0)) -
     }
     attrs = {"radius": float(ref.attrs["radius"]), "surface": str(ref.attrs["surface"]),
              "strip_length": float(ref["rolled_distance"])}
+    for key in ("spring_rheology", "kernel_construction"):  # what the passes ran on, when they all agree
+        values = {str(r.attrs[key]) for r in runs if key in r.attrs}
+        if values:
+            attrs[key] = values.pop() if len(values) == 1 else "mixed: " + ", ".join(sorted(values))
     return xr.Dataset(data, coords=coords, attrs=attrs)
