@@ -102,8 +102,7 @@ __all__ = [
     "belt_point_mobility",
 ]
 
-# |a - b| below which (1 - exp(-y)) / y is summed as a Taylor series (next term y^9/10! < 3e-13 y^0 ... at 0.5:
-# 0.5^10 / 11! = 2.4e-11 relative to 1 for the term dropped after y^9; see _one_minus_exp_over)
+# |a - b| below which (1 - exp(-y)) / y is summed as its Taylor series (to y^12: next term 0.25^13 / 14! = 2e-19)
 _SERIES_LIMIT = 0.25
 
 
