@@ -100,6 +100,7 @@ __all__ = [
     "layer_two_port",
     "layer_on_belt_compliance",
     "belt_point_mobility",
+    "belt_element_frf_correction",
 ]
 
 # |a - b| below which (1 - exp(-y)) / y is summed as its Taylor series (to y^12: next term 0.25^13 / 14! = 2e-19)
@@ -461,3 +462,189 @@ def belt_point_mobility(omega, belt: BeltProperties, y0: float | None = None, n_
     for i, w in enumerate(flat):
         out[i] = 1j * w * 2.0 / (belt.circumference * w_width) * np.sum(weight * _ring_sums(ky, w, belt))
     return out.reshape(omega.shape)[()]
+
+
+# --- the belt's part of the element Green's function ---------------------------------------------------------------
+
+
+def _sinc(x):
+    """sin(x) / x (numpy's normalised sinc rescaled; 1 at x = 0)."""
+    return np.sinc(np.asarray(x) / math.pi)
+
+
+class _PolarRule:
+    """Quadrature nodes of the quarter plane kx, ky > 0 in polar form: k_j (composite Gauss-Legendre) x theta_i."""
+
+    def __init__(self, k, wk, n_theta):
+        self.k = k
+        self.wk = wk
+        self.theta = (np.arange(n_theta) + 0.5) * (0.5 * math.pi / n_theta)  # midpoint rule (spectral: periodic)
+        self.wtheta = 0.5 * math.pi / n_theta
+
+
+def _gauss_panels(edges, order=8):
+    """Composite Gauss-Legendre nodes and weights on the panels between consecutive ``edges``."""
+    x, w = np.polynomial.legendre.leggauss(order)
+    a, b = edges[:-1, None], edges[1:, None]
+    half = 0.5 * (b - a)
+    return ((a + b) * 0.5 + half * x).ravel(), (half * w).ravel()
+
+
+def _belt_wave_band(omega, e, poisson, density, thickness, belt, k0, k_max):
+    """Wavenumber bands where Re(Z + K_b) changes sign (free waves of belt + tread) and their relative width.
+
+    Scanned on 600 log-spaced |k| x 24 directions; returns a list of (k_lo, k_hi) and the smallest relative
+    half-width eta_eff = |Im D| / |d Re D / d ln k| found at a crossing (D = Z + K_b), or (None, inf) without
+    crossings.
+    """
+    ks = np.geomspace(k0, k_max, 600)
+    th = (np.arange(24) + 0.5) * (0.5 * math.pi / 24)
+    port = layer_two_port(ks, omega, e, poisson, density, thickness)
+    d = belt_impedance(ks[None, :] * np.cos(th)[:, None], ks[None, :] * np.sin(th)[:, None], omega, belt)
+    d = d + port["k_base"][None, :]
+    re = d.real
+    cross = np.signbit(re[:, :-1]) != np.signbit(re[:, 1:])
+    if not cross.any():
+        return [], math.inf
+    i_th, i_k = np.nonzero(cross)
+    slope = np.abs(re[i_th, i_k + 1] - re[i_th, i_k]) / (np.log(ks[i_k + 1]) - np.log(ks[i_k]))
+    eta = np.abs(d[i_th, i_k].imag) / np.maximum(slope, 1e-300)
+    bands = sorted((ks[i] / 1.5, ks[i + 1] * 1.5) for i in np.unique(i_k))
+    merged = [list(bands[0])]
+    for lo, hi in bands[1:]:
+        if lo <= merged[-1][1]:
+            merged[-1][1] = max(merged[-1][1], hi)
+        else:
+            merged.append([lo, hi])
+    return [tuple(b) for b in merged], float(np.min(eta))
+
+
+def _correction_rule(omega, e, poisson, density, thickness, belt, r_max, refine, n_theta, extent=1.0):
+    """The (k, theta) rule of :func:`belt_element_frf_correction` at one frequency (see there)."""
+    h = thickness
+    mu = e / (2.0 * (1.0 + poisson))
+    k_s = float((omega * np.sqrt(density / mu)).real)
+    k0 = 1e-3 / h
+    bands, eta = _belt_wave_band(omega, e, poisson, density, h, belt, k0, max(40.0 / h, 2.0 * k_s + 40.0 / h))
+    k_max = extent * max(40.0 / h, 1.5 * k_s + 30.0 / h, max((b[1] for b in bands), default=0.0))
+    coarse = 1.0 + 0.04 / refine
+    fine = 1.0 + float(np.clip(eta / 3.0, 5e-4, 0.04)) / refine
+    width_cap = math.pi / (2.0 * r_max) if r_max > 0 else math.inf
+    edges = [0.0, k0]
+    while edges[-1] < k_max:
+        k = edges[-1]
+        ratio = fine if any(lo <= k <= hi for lo, hi in bands) else coarse
+        edges.append(min(k * ratio, k + width_cap))
+    k, wk = _gauss_panels(np.array(edges))
+    if n_theta is None:
+        k_eff = min(k_max, 1.5 * k_s + 30.0 / h)  # beyond it the integrand decays like exp(-2 k h)
+        n_theta = int(math.ceil(refine * (32 + k_eff * r_max)))
+    return _PolarRule(k, wk, n_theta)
+
+
+def belt_element_frf_correction(offsets, element_size, omega, modulus, poisson, density, thickness,
+                                belt: BeltProperties, refine: float = 1.0, n_theta: int | None = None,
+                                extent: float = 1.0):
+    r"""The belt's part Delta g of the element Green's function: g_belt = greens.element_frf + Delta g [m/N].
+
+    Delta g(d, w) = 1 / (2 pi)^2 int int P(kx, ky) tau^2 / (Z(kx, ky, w) + K_b(|k|, w)) exp(i k.d) dkx dky,
+
+    P = sinc(kx c / 2) sinc(ky c / 2): the spectrum of a unit force spread uniformly over one c x c element, with
+    the displacement taken at the field element's centre -- the convention of :func:`tyreroad.greens.element_frf`
+    (its remainder is transformed against P once, not P^2, and its Love term is the point displacement of the
+    loaded square), so element_frf + Delta g is the element FRF of tread + belt (H_belt = H_rigid + tau^2 /
+    (Z + K_b), module docstring). Time convention exp(+i w t); a passive tread + belt has Im(g + Delta g) <= 0
+    at offset 0.
+
+    Representation: the infinite plane (a). The belt is taken as wide and long compared with the contact patch
+    (20-150 mm on a 1.9 m ring, 0.16 m wide) and the periodic ring / simply supported width are not imposed
+    here: the tread's coupling is exact only for a laterally infinite layer, the belt's bed makes the integrand
+    smooth at k -> 0, and its loss factor broadens the free-wave peaks, so the images of the load (ring period,
+    edges) are weak. :func:`tyreroad.belt.belt_point_mobility` keeps the ring and width for the belt's own
+    mobility; benchmarks/belt_element_convergence.py measures the plane against the ring-and-strip mode sum.
+
+    Quadrature: P, tau^2 / (Z + K_b) and cos(kx x) cos(ky y) are even in kx and in ky, so the integral is four
+    times the quarter plane, written in polar coordinates k (kx, ky) = k (cos theta, sin theta):
+    (4 / (2 pi)^2) int_0^{pi/2} dtheta int_0^inf k dk .... theta: midpoint rule with ``n_theta`` nodes (spectral:
+    the theta integrand is smooth and, extended, periodic and even; default 32 + k_eff r_max, k_eff =
+    1.5 k_s + 30 / h, times ``refine``). k: 8-point Gauss-Legendre panels, one on [0, k0 = 1e-3 / h], then
+    geometric panels, fine (ratio 1 + eta_eff / 3, clipped to 1.0005 ... 1.04) in the bands where Re(Z + K_b)
+    changes sign (the free waves of belt + tread, found by a scan over k and 24 directions, widened by 1.5 each
+    side; eta_eff their smallest relative half-width in ln k: the belt's loss is on bending and bed only, the
+    tension is lossless, so it can be well below eta) and coarse (ratio 1.04) elsewhere, no panel wider than
+    pi / (2 r_max), up to k_max = max(40 / h, 1.5 k_s + 30 / h, the top of the wave bands) (tau decays like
+    exp(-k h) beyond the tread's shear wavenumber k_s, Z grows like k^4); ``refine`` divides the ratios' excess
+    (and multiplies the default n_theta), ``extent`` multiplies k_max. tau and K_b depend on |k| only and are evaluated once per k node and frequency.
+
+    Parameters
+    ----------
+    offsets : array_like
+        Offsets (x, y) of the field element centres [m], (n, 2); x circumferential, y lateral.
+    element_size : float
+        Element size c [m].
+    omega : array_like
+        Angular frequencies [rad/s], >= 0.
+    modulus : array_like
+        Complex Young's modulus of the tread E(omega) [Pa], broadcastable with ``omega``.
+    poisson, density, thickness : float
+        Tread Poisson's ratio [-], density [kg/m^3], thickness h [m].
+    belt : BeltProperties
+        The belt (its circumference and width are not used: infinite plane).
+    refine : float
+        Resolution factor (>= 1) for convergence checks: panel ratios' excess / refine, default n_theta x refine.
+    extent : float
+        Extent factor (>= 1): k_max x extent, for convergence checks.
+    n_theta : int, optional
+        Directions in the quarter plane (default: see above).
+
+    Returns
+    -------
+    numpy.ndarray
+        Complex Delta g, shape (len(omega), n) [m/N].
+    """
+    if not isinstance(belt, BeltProperties):
+        raise ValueError(f"belt: expected a BeltProperties, got {type(belt).__name__}")
+    offsets = np.asarray(offsets, dtype=float).reshape(-1, 2)
+    if not np.all(np.isfinite(offsets)):
+        raise ValueError("offsets: expected finite values")
+    c = checks.real("element_size", element_size, positive=True)
+    omega = np.atleast_1d(checks.nonnegative_array("omega", omega))
+    e_all = np.broadcast_to(_modulus_array(modulus), omega.shape)
+    nu = checks.poisson_ratio(poisson, allow_zero=False)
+    rho = checks.real("density", density, positive=True)
+    h = checks.real("thickness", thickness, positive=True)
+    refine = checks.real("refine", refine, positive=True)
+    if refine < 1.0:
+        raise ValueError(f"refine: expected >= 1, got {refine!r}")
+    extent = checks.real("extent", extent, positive=True)
+    if extent < 1.0:
+        raise ValueError(f"extent: expected >= 1, got {extent!r}")
+    if n_theta is not None:
+        n_theta = checks.integer("n_theta", n_theta)
+        if n_theta < 1:
+            raise ValueError(f"n_theta: expected >= 1, got {n_theta!r}")
+    ax, ay = np.abs(offsets[:, 0]), np.abs(offsets[:, 1])
+    r_max = float(np.hypot(ax, ay).max(initial=0.0))
+    out = np.empty((omega.size, len(offsets)), dtype=complex)
+    for i, (w, e) in enumerate(zip(omega, e_all)):
+        rule = _correction_rule(w, e, nu, rho, h, belt, r_max, refine, n_theta, extent)
+        port = layer_two_port(rule.k, w, e, nu, rho, h)
+        radial = (4.0 / (2.0 * math.pi) ** 2) * rule.wtheta * rule.wk * rule.k * port["tau"] ** 2
+        # direction chunks bound the (theta, k) temporaries
+        step = max(1, (1 << 20) // rule.k.size)
+        acc = np.zeros(len(offsets), dtype=complex)
+        for start in range(0, rule.theta.size, step):
+            th = rule.theta[start:start + step, None]
+            kx, ky = rule.k[None, :] * np.cos(th), rule.k[None, :] * np.sin(th)
+            z = belt_impedance(kx, ky, w, belt)
+            f = (radial * _sinc(0.5 * c * kx) * _sinc(0.5 * c * ky) / (z + port["k_base"])).ravel()
+            if r_max == 0.0:
+                acc += f.sum()
+                continue
+            kxf, kyf = kx.ravel(), ky.ravel()
+            for j0 in range(0, len(offsets), 16):
+                js = slice(j0, j0 + 16)
+                phase = np.cos(np.outer(kxf, ax[js])) * np.cos(np.outer(kyf, ay[js]))
+                acc[js] += f @ phase
+        out[i] = acc
+    return out
