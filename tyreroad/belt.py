@@ -91,7 +91,7 @@ from dataclasses import dataclass, fields, replace
 import numpy as np
 
 from . import checks
-from .layer import _branch_sqrt, _modulus_array, _moduli, compliance
+from .layer import _branch_sqrt, _modulus_array, _moduli, _scaled_roots, compliance
 
 __all__ = [
     "BeltProperties",
@@ -255,16 +255,8 @@ def _two_port_numpy(x, e_s, r):
     e_s = e_s.ravel()
     origin = (x == 0.0) & (e_s == 0.0)
     x[origin] = 1.0  # harmless value; replaced by the limits at the end
-    x2 = x * x
-    e_p = r * e_s
-    a = _branch_sqrt(x2 - e_p)
-    b = _branch_sqrt(x2 - e_s)
-    ab = a * b
+    x2, a, b, _, p_over_e = _scaled_roots(x, e_s, r)
     apb = a + b
-    near_static = np.abs(e_s) <= x2
-    with np.errstate(divide="ignore", invalid="ignore"):
-        es_far = np.where(near_static, 1.0, e_s)
-        p_over_e = np.where(near_static, (e_p - x2 * (1.0 + r)) / (ab + x2), (ab - x2) / es_far)
     q = 2.0 * x2 - e_s
     pd = p_over_e * apb / (1.0 - r)  # (ab - x^2) / (a - b)
     bpd = (2.0 * p_over_e + 1.0) * apb / (1.0 - r)  # b + p_d
@@ -543,6 +535,26 @@ def _correction_rule(omega, e, poisson, density, thickness, belt, r_max, refine,
     return _PolarRule(k, wk, n_theta)
 
 
+def _element_inputs(offsets, element_size, omega, modulus, poisson, density, thickness, belt, extent):
+    """The checked inputs of the element corrections: (offsets (n, 2) [m], c [m], omega (m,) [rad/s], E(omega)
+    (m,) [Pa], nu, rho [kg/m^3], h [m], extent)."""
+    if not isinstance(belt, BeltProperties):
+        raise ValueError(f"belt: expected a BeltProperties, got {type(belt).__name__}")
+    offsets = np.asarray(offsets, dtype=float).reshape(-1, 2)
+    if not np.all(np.isfinite(offsets)):
+        raise ValueError("offsets: expected finite values")
+    c = checks.real("element_size", element_size, positive=True)
+    omega = np.atleast_1d(checks.nonnegative_array("omega", omega))
+    e_all = np.broadcast_to(_modulus_array(modulus), omega.shape)
+    nu = checks.poisson_ratio(poisson, allow_zero=False)
+    rho = checks.real("density", density, positive=True)
+    h = checks.real("thickness", thickness, positive=True)
+    extent = checks.real("extent", extent, positive=True)
+    if extent < 1.0:
+        raise ValueError(f"extent: expected >= 1, got {extent!r}")
+    return offsets, c, omega, e_all, nu, rho, h, extent
+
+
 def belt_element_frf_correction(offsets, element_size, omega, modulus, poisson, density, thickness,
                                 belt: BeltProperties, refine: float = 1.0, n_theta: int | None = None,
                                 extent: float = 1.0):
@@ -605,23 +617,11 @@ def belt_element_frf_correction(offsets, element_size, omega, modulus, poisson, 
     numpy.ndarray
         Complex Delta g, shape (len(omega), n) [m/N].
     """
-    if not isinstance(belt, BeltProperties):
-        raise ValueError(f"belt: expected a BeltProperties, got {type(belt).__name__}")
-    offsets = np.asarray(offsets, dtype=float).reshape(-1, 2)
-    if not np.all(np.isfinite(offsets)):
-        raise ValueError("offsets: expected finite values")
-    c = checks.real("element_size", element_size, positive=True)
-    omega = np.atleast_1d(checks.nonnegative_array("omega", omega))
-    e_all = np.broadcast_to(_modulus_array(modulus), omega.shape)
-    nu = checks.poisson_ratio(poisson, allow_zero=False)
-    rho = checks.real("density", density, positive=True)
-    h = checks.real("thickness", thickness, positive=True)
+    offsets, c, omega, e_all, nu, rho, h, extent = _element_inputs(offsets, element_size, omega, modulus, poisson,
+                                                                   density, thickness, belt, extent)
     refine = checks.real("refine", refine, positive=True)
     if refine < 1.0:
         raise ValueError(f"refine: expected >= 1, got {refine!r}")
-    extent = checks.real("extent", extent, positive=True)
-    if extent < 1.0:
-        raise ValueError(f"extent: expected >= 1, got {extent!r}")
     if n_theta is not None:
         n_theta = checks.integer("n_theta", n_theta)
         if n_theta < 1:
@@ -722,20 +722,8 @@ def belt_element_frf_correction_ring(offsets, element_size, omega, modulus, pois
     numpy.ndarray
         Complex Delta g, shape (len(omega), n) [m/N].
     """
-    if not isinstance(belt, BeltProperties):
-        raise ValueError(f"belt: expected a BeltProperties, got {type(belt).__name__}")
-    offsets = np.asarray(offsets, dtype=float).reshape(-1, 2)
-    if not np.all(np.isfinite(offsets)):
-        raise ValueError("offsets: expected finite values")
-    c = checks.real("element_size", element_size, positive=True)
-    omega = np.atleast_1d(checks.nonnegative_array("omega", omega))
-    e_all = np.broadcast_to(_modulus_array(modulus), omega.shape)
-    nu = checks.poisson_ratio(poisson, allow_zero=False)
-    rho = checks.real("density", density, positive=True)
-    h = checks.real("thickness", thickness, positive=True)
-    extent = checks.real("extent", extent, positive=True)
-    if extent < 1.0:
-        raise ValueError(f"extent: expected >= 1, got {extent!r}")
+    offsets, c, omega, e_all, nu, rho, h, extent = _element_inputs(offsets, element_size, omega, modulus, poisson,
+                                                                   density, thickness, belt, extent)
     if np.any(np.abs(offsets[:, 1]) >= 0.5 * belt.width):
         raise ValueError("offsets: lateral offsets must stay inside the belt (|y| < W / 2)")
     out = np.empty((omega.size, len(offsets)), dtype=complex)

@@ -178,6 +178,25 @@ def _moduli(modulus, nu):
     return mu, m
 
 
+def _scaled_roots(x, e_s, r):
+    """(x^2, a, b, near_static, P / e_s) of the stable form (module docstring), h-scaled: a = alpha h, b = beta h
+    (principal roots), near_static = |e_s| <= x^2 (where P / e_s takes its cancellation-free form).
+
+    x = k h [-] (> 0 where e_s = 0), e_s = rho (w h)^2 / mu [-] (complex), r = mu / M [-]; arrays broadcast.
+    Shared by the rigid-base compliance and the two-port of :mod:`tyreroad.belt`.
+    """
+    x2 = x * x
+    e_p = r * e_s
+    a = _branch_sqrt(x2 - e_p)
+    b = _branch_sqrt(x2 - e_s)
+    ab = a * b
+    near_static = np.abs(e_s) <= x2
+    with np.errstate(divide="ignore", invalid="ignore"):
+        es_far = np.where(near_static, 1.0, e_s)
+        p_over_e = np.where(near_static, (e_p - x2 * (1.0 + r)) / (ab + x2), (ab - x2) / es_far)
+    return x2, a, b, near_static, p_over_e
+
+
 def _compliance_numpy(x, e_s, mu, r, h):
     """Plain-numpy evaluation of the stable form (reference for the numba kernel; same formulas).
 
@@ -188,16 +207,10 @@ def _compliance_numpy(x, e_s, mu, r, h):
     origin = (x == 0.0) & (e_s == 0.0)
     # the single degenerate point (a + b = 0) is replaced by a harmless value and set to h/M at the end
     x = np.where(origin, 1.0, x)
-    x2 = x * x
-    a = _branch_sqrt(x2 - e_p)
-    b = _branch_sqrt(x2 - e_s)
+    x2, a, b, near_static, p_over_e = _scaled_roots(x, e_s, r)
     ab = a * b
     apb = a + b
-
-    near_static = np.abs(e_s) <= x2
     with np.errstate(divide="ignore", invalid="ignore"):
-        es_far = np.where(near_static, 1.0, e_s)
-        p_over_e = np.where(near_static, (e_p - x2 * (1.0 + r)) / (ab + x2), (ab - x2) / es_far)
         one_plus = np.where(near_static, (ab + e_p - r * x2) / (ab + x2), 1.0 + p_over_e)
     rayleigh = -4.0 * x2 * one_plus + e_s  # R h^4 / e_s
     q_minus_2p = e_s * (1.0 - r) ** 2 / apb**2 + r  # (Q - 2 alpha beta) h^2 / e_s
