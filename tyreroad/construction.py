@@ -60,7 +60,6 @@ import numpy as np
 import scipy.linalg
 import scipy.optimize
 import xarray as xr
-from scipy.spatial import ConvexHull
 
 logger = logging.getLogger(__name__)
 
@@ -130,30 +129,10 @@ def symbol_support(tables: np.ndarray, n_phi: int = 361, pads=None):
     phi : numpy.ndarray (n_phi,) [rad]
     h : numpy.ndarray (n, n_phi) [m/N], a lower bound of lambda_min Herm(e^{i phi} G_d) of the patch.
     """
-    n, sx, sy = tables.shape
-    nx, ny = (sx + 1) // 2, (sy + 1) // 2
-    if pads is None:
-        pads = list(zip(_pad_sizes(nx), _pad_sizes(ny)))
+    nx, ny = (tables.shape[1] + 1) // 2, (tables.shape[2] + 1) // 2
     phi = np.linspace(-np.pi / 2, np.pi / 2, n_phi)
-    rot = np.stack([np.cos(phi), -np.sin(phi)], axis=1)
-    h = np.full((n, n_phi), -np.inf)
-    dxs = np.arange(-(nx - 1), nx)
-    dys = np.arange(-(ny - 1), ny)
-    for px, py in pads:
-        if px < sx or py < sy:
-            raise ValueError(f"circulant {px} x {py} smaller than the table {sx} x {sy}")
-        ix, iy = dxs % px, dys % py
-        buf = np.zeros((px, py), dtype=complex)
-        for k in range(n):
-            buf[np.ix_(ix, iy)] = tables[k]
-            a = np.fft.fft2(buf).ravel()
-            pts = np.stack([a.real, a.imag], axis=1)
-            try:
-                pts = pts[ConvexHull(pts).vertices]
-            except Exception:  # degenerate (collinear) point set: all points
-                pass
-            np.maximum(h[k], (rot @ pts.T).min(axis=1), out=h[k])
-    return phi, h
+    return phi, circulant_lower_bound(tables, (nx, ny), phi,
+                                      pads if pads is not None else list(zip(_pad_sizes(nx), _pad_sizes(ny))))
 
 
 def patch_support(tables: np.ndarray, shape, phi: np.ndarray, symmetry: bool = True) -> np.ndarray:
@@ -210,12 +189,12 @@ def _lambda_min_on_phases(b: np.ndarray, c: np.ndarray, phi: np.ndarray) -> np.n
                                        subset_by_index=[0, 0], check_finite=False)[0] for f in phi])
 
 
-def circulant_lower_bound(tables: np.ndarray, shape, phi: np.ndarray) -> np.ndarray:
+def circulant_lower_bound(tables: np.ndarray, shape, phi: np.ndarray, pads=None) -> np.ndarray:
     """A certified lower bound of :func:`patch_support`: lambda_min Herm(e^{i phi} G_d) of the patch's matrices.
 
     The patch's two-level Toeplitz matrix is a principal submatrix of every circulant of size >= 2 n - 1 per axis
     whose first column is the cropped table (see :func:`symbol_support`), so lambda_min of the patch is at least
-    the circulant's, min over the DFT grid of Re(e^{i phi} A). Two circulant sizes per axis; the larger bound kept.
+    the circulant's, min over the DFT grid of Re(e^{i phi} A). The largest bound over the circulant sizes is kept.
 
     Parameters
     ----------
@@ -225,18 +204,24 @@ def circulant_lower_bound(tables: np.ndarray, shape, phi: np.ndarray) -> np.ndar
         Patch (nx, ny).
     phi : numpy.ndarray
         Angles [rad].
+    pads : sequence of (int, int), optional
+        Circulant sizes (each >= 2 n - 1 per axis); default: the tightest and the widest of :func:`_pad_sizes`.
 
     Returns
     -------
     numpy.ndarray (n, len(phi)) [m/N]
     """
     nx, ny = shape
+    if pads is None:
+        pads = list(zip(_pad_sizes(nx), _pad_sizes(ny)))[::3]
     cx, cy = (tables.shape[1] - 1) // 2, (tables.shape[2] - 1) // 2
     crop = tables[:, cx - (nx - 1): cx + nx, cy - (ny - 1): cy + ny]
     ix0, iy0 = np.arange(-(nx - 1), nx), np.arange(-(ny - 1), ny)
     out = np.full((tables.shape[0], len(phi)), -np.inf)
     cos, sin = np.cos(phi), np.sin(phi)
-    for px, py in list(zip(_pad_sizes(nx), _pad_sizes(ny)))[::3]:  # the tightest and the widest embedding
+    for px, py in pads:
+        if px < 2 * nx - 1 or py < 2 * ny - 1:
+            raise ValueError(f"circulant {px} x {py} smaller than the table {2 * nx - 1} x {2 * ny - 1}")
         for start in range(0, tables.shape[0], 128):
             part = crop[start:start + 128]
             buf = np.zeros((part.shape[0], px, py), dtype=complex)
