@@ -316,7 +316,7 @@ def design_correction(lags: np.ndarray, tail_compliance=None, weights=(), decays
                       sample_rate: float = 51200.0, band: float = 5000.0, fidelity_budget: float = 4e-3,
                       k_target: float = DEFAULT_K_TARGET, margin: float = 3e-7, n_taps: int = 128,
                       n_theta: int = 512, n_phi: int = 16, max_rounds: int = 12, symmetry: bool = True,
-                      n_dense: int | None = None) -> Correction:
+                      n_dense: int | None = None, longer_taps: int | None = None) -> Correction:
     """Design the spring-safe correction of a kernel's excitation element (see the module docstring).
 
     Parameters
@@ -346,6 +346,10 @@ def design_correction(lags: np.ndarray, tail_compliance=None, weights=(), decays
         LP rounds (phi re-chosen between rounds).
     symmetry : bool
         Eigen-solve the reflection blocks of the patch matrices (:func:`patch_support`; the same values).
+    longer_taps : int, optional
+        If the first target is missed, the next target up from the one met is designed once more with this
+        many taps (<= L), reusing the eigenvalues solved; kept if it meets it (low-loss variants: a longer FIR
+        reaches a stiffer target within the same fidelity budget).
     n_dense : int, optional
         Also check every theta = pi k / n_dense above ``band`` (a divisor of 4096; 1024: the grid of
         :func:`tyreroad.margin.patch_margin`): the LP starts on the coarse grid and adds every checked point
@@ -399,8 +403,6 @@ def design_correction(lags: np.ndarray, tail_compliance=None, weights=(), decays
 
     solve(start_rows)
     fid = np.flatnonzero(theta_all <= t_band * 1.02)[::4]
-    e = _fir(n_taps, theta)
-    ef = _fir(n_taps, theta_all[fid])
 
     def best(values, delta):
         v = values + (np.exp(1j * phi)[None, :] * delta[:, None]).real
@@ -411,66 +413,88 @@ def design_correction(lags: np.ndarray, tail_compliance=None, weights=(), decays
 
     scale = max(margin, 1e-300)
     radius = fidelity_budget * g00[fid] * math.cos(math.pi / 8) / scale
-    eye, zero = np.eye(n_taps), np.zeros((n_taps, 1))
-    rows_fix = [np.hstack([(np.exp(1j * psi) * ef).real, np.zeros((fid.size, n_taps + 1))])
-                for psi in np.arange(8) * np.pi / 4]
-    rows_fix += [np.hstack([eye, -eye, zero]), np.hstack([-eye, -eye, zero])]
-    rhs_fix = [radius] * 8 + [np.zeros(n_taps)] * 2
-    cost = np.r_[np.zeros(n_taps), 1e-3 * np.ones(n_taps), -1.0]
-    a_eq = np.r_[np.ones(n_taps), np.zeros(n_taps + 1)][None, :]
-    bounds = [(None, None)] * n_taps + [(0, None)] * n_taps + [(None, 1.0)]
     rounds, notes = 0, []
-    for target in targets:
-        allowance = (np.cos(phi) / target if math.isfinite(target) else np.zeros(phi.size))[None, :]
-        _, jsel = best(known(h) + allowance, np.zeros(theta.size))
-        rows_on = start_rows.copy()
-        found, last_t = None, None
-        for _ in range(max_rounds):
-            stab = (np.exp(1j * phi[jsel[rows_on]])[:, None] * e[rows_on]).real
-            rows = [np.hstack([-stab, np.zeros((rows_on.size, n_taps)), np.ones((rows_on.size, 1))])] + rows_fix
-            rhs = [(h[rows_on, jsel[rows_on]] + allowance[0, jsel[rows_on]]) / scale] + rhs_fix
-            res = scipy.optimize.linprog(cost, A_ub=np.vstack(rows), b_ub=np.concatenate(rhs), A_eq=a_eq,
-                                         b_eq=[0.0], bounds=bounds, method="highs")
-            rounds += 1
-            if res.status != 0:
-                notes.append(f"LP round {rounds}: {res.message}")
-                break
-            taps = res.x[:n_taps] * scale
-            delta = e @ taps
-            slack, _ = best(known(h) + allowance, delta)
-            solve(np.flatnonzero(slack < 0))  # the bound does not clear these: their own eigenvalues decide
-            slack, jnew = best(known(h) + allowance, delta)
-            if found is None or slack.min() > found[0]:
-                found = (float(slack.min()), taps)
-            # met on the whole checked grid: done (further rounds only re-pick phases where the LP's rows
-            # already hold, which on small patches cycled to max_rounds without changing the verdict)
+
+    def attempt(targets, n_taps):
+        """The targets in turn with ``n_taps`` taps, on the eigenvalues solved so far: ((slack, taps), target)."""
+        nonlocal rounds
+        e = _fir(n_taps, theta)
+        ef = _fir(n_taps, theta_all[fid])
+        eye, zero = np.eye(n_taps), np.zeros((n_taps, 1))
+        rows_fix = [np.hstack([(np.exp(1j * psi) * ef).real, np.zeros((fid.size, n_taps + 1))])
+                    for psi in np.arange(8) * np.pi / 4]
+        rows_fix += [np.hstack([eye, -eye, zero]), np.hstack([-eye, -eye, zero])]
+        rhs_fix = [radius] * 8 + [np.zeros(n_taps)] * 2
+        cost = np.r_[np.zeros(n_taps), 1e-3 * np.ones(n_taps), -1.0]
+        a_eq = np.r_[np.ones(n_taps), np.zeros(n_taps + 1)][None, :]
+        bounds = [(None, None)] * n_taps + [(0, None)] * n_taps + [(None, 1.0)]
+        for target in targets:
+            allowance = (np.cos(phi) / target if math.isfinite(target) else np.zeros(phi.size))[None, :]
+            _, jsel = best(known(h) + allowance, np.zeros(theta.size))
+            rows_on = start_rows.copy()
+            found, last_t = None, None
+            for _ in range(max_rounds):
+                stab = (np.exp(1j * phi[jsel[rows_on]])[:, None] * e[rows_on]).real
+                rows = [np.hstack([-stab, np.zeros((rows_on.size, n_taps)), np.ones((rows_on.size, 1))])] + rows_fix
+                rhs = [(h[rows_on, jsel[rows_on]] + allowance[0, jsel[rows_on]]) / scale] + rhs_fix
+                res = scipy.optimize.linprog(cost, A_ub=np.vstack(rows), b_ub=np.concatenate(rhs), A_eq=a_eq,
+                                             b_eq=[0.0], bounds=bounds, method="highs")
+                rounds += 1
+                if res.status != 0:
+                    notes.append(f"LP round {rounds}: {res.message}")
+                    break
+                taps = res.x[:n_taps] * scale
+                delta = e @ taps
+                slack, _ = best(known(h) + allowance, delta)
+                solve(np.flatnonzero(slack < 0))  # the bound does not clear these: their own eigenvalues decide
+                slack, jnew = best(known(h) + allowance, delta)
+                if found is None or slack.min() > found[0]:
+                    found = (float(slack.min()), taps)
+                # met on the whole checked grid: done (further rounds only re-pick phases where the LP's rows
+                # already hold, which on small patches cycled to max_rounds without changing the verdict)
+                if found[0] >= 0:
+                    break
+                # cutting planes: every checked point the solution violates joins the LP (at its best phase)
+                violated = np.setdiff1d(np.flatnonzero(slack < 0), rows_on)
+                if violated.size == 0 and np.array_equal(jnew[rows_on], jsel[rows_on]):
+                    break
+                # a target the LP misses even on its own rows, with no new rows and the optimum t (< 0) moving by
+                # under 1 %, is not met by more phase re-picks: the next (softer) target is tried
+                t_opt = float(res.x[-1])
+                if (target != targets[-1] and violated.size == 0 and t_opt < 0 and last_t is not None
+                        and abs(t_opt - last_t) < 0.01 * abs(t_opt)):
+                    break
+                last_t = t_opt
+                rows_on = np.union1d(rows_on, violated)
+                jsel = jnew
+            if found is None:
+                solve(np.arange(theta.size))
+                found = (float(best(h + allowance, np.zeros(theta.size))[0].min()), np.zeros(n_taps))
+                notes.append("no correction found: the base kernel is returned")
             if found[0] >= 0:
                 break
-            # cutting planes: every checked point the solution violates joins the LP (at its best phase)
-            violated = np.setdiff1d(np.flatnonzero(slack < 0), rows_on)
-            if violated.size == 0 and np.array_equal(jnew[rows_on], jsel[rows_on]):
-                break
-            # a target the LP misses even on its own rows, with no new rows and the optimum t (< 0) moving by
-            # under 1 %, is not met by more phase re-picks: the next (softer) target is tried
-            t_opt = float(res.x[-1])
-            if (target != targets[-1] and violated.size == 0 and t_opt < 0 and last_t is not None
-                    and abs(t_opt - last_t) < 0.01 * abs(t_opt)):
-                break
-            last_t = t_opt
-            rows_on = np.union1d(rows_on, violated)
-            jsel = jnew
-        if found is None:
-            solve(np.arange(theta.size))
-            found = (float(best(h + allowance, np.zeros(theta.size))[0].min()), np.zeros(n_taps))
-            notes.append("no correction found: the base kernel is returned")
-        if found[0] >= 0:
-            break
-        notes.append(f"k_target {target:.3g} N/m not met on the grid (slack {found[0]:.3g} m/N)")
+            notes.append(f"k_target {target:.3g} N/m not met on the grid (slack {found[0]:.3g} m/N)")
+        return found, target
+
+    found, target = attempt(targets, n_taps)
+    met = targets.index(target) if found[0] >= 0 else len(targets)
+    longer = min(int(longer_taps or 0), lags.shape[2])
+    if met > 0 and longer > n_taps:
+        # the next target up once more with a longer FIR, on the eigenvalues already solved (same fidelity budget)
+        kept_notes = len(notes)
+        more, up = attempt([targets[met - 1]], longer)
+        logger.info("design_correction: %d taps for k_target %.3g N/m: %s", longer, up,
+                    "met" if more[0] >= 0 else f"not met (slack {more[0]:.3g} m/N)")
+        if more[0] >= 0:
+            found, target = more, up
+        else:
+            del notes[kept_notes:]  # the shorter design stands, with its own notes
     slack, taps = found
-    delta_all = _fir(n_taps, theta_all) @ taps
+    delta_all = _fir(taps.size, theta_all) @ taps
     # the reported grid minima are over the rows solved exactly (elsewhere the bound cleared the slack)
     exact = np.flatnonzero(~np.isnan(h[:, 0]))
-    theta, h, e = theta[exact], h[exact], e[exact]
+    theta, h = theta[exact], h[exact]
+    e = _fir(taps.size, theta)
     base_p, _ = best(h, np.zeros(theta.size))
     p, _ = best(h, e @ taps)
     i = int(np.argmin(p))
