@@ -167,31 +167,54 @@ class BeltProperties:
         )
 
 
-# Passenger-car belt (a 195/65 R15-class tyre, the seed's tread), x circumferential, y lateral. The published
-# Kropp (1989) / Larsson & Kropp (2002) parameter tables could not be consulted from this session, so each value
-# below is an order-of-magnitude estimate whose derivation is stated; they are to be replaced by the published
-# (fitted-to-mobility) values before any quantitative comparison with measured tyres.
+# Passenger-car belt (a 195/65 R15-class tyre, the seed's tread), x circumferential, y lateral.
+#
+# Sources. Every value below is still an ORDER-OF-MAGNITUDE ESTIMATE whose derivation is stated; none is a published
+# fitted value. Searched (session s15, 2026-11-26, the stored public-text index: web pages, documentation, public code
+# repositories) for the parameter tables of Kropp (1989, Appl. Acoust. 26, 181-192), Larsson & Kropp (2002, JSV 253,
+# 889-908), Andersson, Larsson & Kropp (2001), Pinnington (2006, JSV 290, 101-132 and 133-168), Pinnington & Briscoe,
+# Muggleton, Mace & Brennan (2003), Le Bot et al. (2017, JSV 392, 187-199; 2018, R. Soc. open sci. 5:180639), Kropp's
+# thesis, Hoever's thesis (Chalmers 2014) and Hoever & Kropp (2015), and for open code implementing Kropp's
+# orthotropic plate tyre model. Only abstracts and first pages could be read; no parameter table, and no code holding
+# bending stiffness, tension, mass per area, bed stiffness or loss factor of a tyre belt, was found. Kropp (1989) itself
+# was found only in reference lists. What the abstracts read DO say (frequencies only, no levels), used in
+# tyreroad/belt_mobility.py (PUBLISHED_MOBILITY) and docs/belt.md as a check, not as values here:
+#   * Pinnington & Briscoe, "A wave model for a pneumatic tyre belt" (J. Sound Vib., abstract): tension and the sidewall
+#     control the deformation and stiffness below 100 Hz, waves propagate around the belt above; for a car tyre the
+#     modal behaviour is observed to cease above about 400 Hz, where the tyre at the input appears of infinite extent.
+#   * Muggleton, Mace & Brennan (2003), J. Sound Vib. (abstract; two-plate wave model of a tyre on a rigid rim under a
+#     line force, in "reasonable agreement" with experiments on an inflated tyre on a wheel rim): stiffness-like below
+#     100 Hz, resonant 100-500 Hz, tending towards an infinite orthotropic plate above 500 Hz.
+# Measured against them (tyreroad/belt_mobility.py, docs/belt.md), this belt is too stiff at the bottom (its first
+# strip mode n = 0, m = 1 is at about 180 Hz: the lateral tension across the simply supported width,
+# T_y (pi / W)^2 = 8.5e6 N/m^3, outweighs the bed s = 2.6e6 N/m^3) and too lightly damped at the top (its point
+# mobility stays within a factor 1.5 of the infinite plate 1 / (8 sqrt(sqrt(D_x D_y) m)) only above about 1.1 kHz and
+# within a factor 1.3 above about 1.9 kHz, not from 400-500 Hz; the tension, lossless here, carries much of the
+# stiffness). Both are reasons to replace the estimates by a fit to a measured mobility; they are kept unchanged here
+# because no published values were found.
 DEFAULT_BELT = BeltProperties(
-    # Steel-cord belt package (two steel plies + cap + carcass, ~4-5 mm of rubber-steel laminate) of effective
-    # bending modulus ~0.5 GPa: D = E' t^3 / 12 ~ 3-4 N m; order of magnitude from Kropp (1989), whose plate
-    # has belt bending stiffnesses of a few N m. Cords near the circumferential direction: D_x > D_y.
-    bending_x=3.7,       # N m
-    bending_y=2.0,       # N m, order of magnitude (lateral bending carried by the rubber matrix and carcass)
-    bending_xy=2.7,      # N m, sqrt(D_x D_y) (Huber's approximation for a laminate), order of magnitude
-    # Membrane pre-tension from the inflation pressure p0 = 2.2e5 Pa: circumferential T_x ~ p0 R with belt radius
-    # R ~ 0.3 m (thin ring hoop tension), lateral T_y ~ p0 r_m with the cross-section's meridional radius
-    # r_m ~ 0.1 m. Order of magnitude (Kropp 1989 takes both tensions from the inflation pressure).
-    tension_x=6.6e4,     # N/m
-    tension_y=2.2e4,     # N/m
-    # Belt + carcass without tread, ~2.7 kg of a 8-9 kg tyre on the 1.9 m x 0.16 m band + sidewall share;
-    # order of magnitude (the tread, 1100 kg/m^3 x 10 mm = 11 kg/m^2, is the layer in front of it).
-    mass=9.0,            # kg/m^2
-    # Bed: chosen so that the uniform (k = 0) mode, sqrt(s / m) / 2 pi, is at 85 Hz, the first radial resonance
-    # of a passenger-car tyre on a fixed rim (80-100 Hz, measured; e.g. Kropp 1989, Pinnington 2006
-    # doi:10.1016/j.jsv.2005.03.027): s = m (2 pi 85)^2.
-    bed=9.0 * (2.0 * math.pi * 85.0) ** 2,   # N/m^3 (= 2.57e6)
-    # Structural loss factor of the belt, order of magnitude of the values fitted to measured tyre mobilities
-    # (0.05-0.2 in the tyre literature, e.g. Larsson & Kropp 2002).
+    # ESTIMATE. Steel-cord belt package (two steel plies + cap + carcass, ~4-5 mm of rubber-steel laminate) of
+    # effective bending modulus ~0.5 GPa: D = E' t^3 / 12 ~ 3-4 N m. Cords near the circumferential direction:
+    # D_x > D_y. (The earlier note "order of magnitude from Kropp (1989)" could not be checked: the paper was not
+    # found.)
+    bending_x=3.7,       # N m, estimate
+    bending_y=2.0,       # N m, estimate (lateral bending carried by the rubber matrix and carcass)
+    bending_xy=2.7,      # N m, sqrt(D_x D_y) (Huber's approximation for a laminate), estimate
+    # ESTIMATE. Membrane pre-tension from the inflation pressure p0 = 2.2e5 Pa: circumferential T_x ~ p0 R with belt
+    # radius R ~ 0.3 m (thin ring hoop tension), lateral T_y ~ p0 r_m with the cross-section's meridional radius
+    # r_m ~ 0.1 m (both from the inflation pressure, as the abstracts above describe the tension).
+    tension_x=6.6e4,     # N/m, estimate
+    tension_y=2.2e4,     # N/m, estimate
+    # ESTIMATE. Belt + carcass without tread, ~2.7 kg of a 8-9 kg tyre on the 1.9 m x 0.16 m band + sidewall share
+    # (the tread, 1100 kg/m^3 x 10 mm = 11 kg/m^2, is the layer in front of it).
+    mass=9.0,            # kg/m^2, estimate
+    # ESTIMATE. Bed: chosen so that the uniform (k = 0) mode, sqrt(s / m) / 2 pi, is at 85 Hz, taken as the first radial
+    # resonance of a passenger-car tyre on a fixed rim: s = m (2 pi 85)^2. The 80-100 Hz figure was not found in any
+    # source read (the abstracts above only put tension/sidewall control below about 100 Hz); and on the finite strip
+    # the first mode is at about 180 Hz, not 85 Hz (see above).
+    bed=9.0 * (2.0 * math.pi * 85.0) ** 2,   # N/m^3 (= 2.57e6), estimate
+    # ESTIMATE. Structural loss factor on bending and bed. The earlier note "0.05-0.2 in the tyre literature, e.g.
+    # Larsson & Kropp 2002" could not be checked (only the abstract of that paper was read).
     loss_factor=0.1,
     circumference=1.9,   # m, 2 pi x 0.30 m belt radius
     width=0.16,          # m, belt width of a 195-205 mm tyre
