@@ -185,9 +185,10 @@ class BeltProperties:
 #   * Muggleton, Mace & Brennan (2003), J. Sound Vib. (abstract; two-plate wave model of a tyre on a rigid rim under a
 #     line force, in "reasonable agreement" with experiments on an inflated tyre on a wheel rim): stiffness-like below
 #     100 Hz, resonant 100-500 Hz, tending towards an infinite orthotropic plate above 500 Hz.
-# Measured against them (tyreroad/belt_mobility.py, docs/belt.md), this belt is too stiff at the bottom (its first
-# strip mode n = 0, m = 1 is at about 180 Hz: the lateral tension across the simply supported width,
-# T_y (pi / W)^2 = 8.5e6 N/m^3, outweighs the bed s = 2.6e6 N/m^3) and too lightly damped at the top (its point
+# Measured against them (tyreroad/belt_mobility.py, docs/belt.md), this belt is stiff at the bottom (its first
+# strip mode n = 0, m = 1 is at about 180 Hz bare and 140 Hz with the 10 mm tread riding on it as a mass, not below
+# 100 Hz: the lateral tension across the simply supported width, T_y (pi / W)^2 = 8.5e6 N/m^3, outweighs the bed
+# s = 2.6e6 N/m^3) and too lightly damped at the top (its point
 # mobility stays within a factor 1.5 of the infinite plate 1 / (8 sqrt(sqrt(D_x D_y) m)) only above about 1.1 kHz and
 # within a factor 1.3 above about 1.9 kHz, not from 400-500 Hz; the tension, lossless here, carries much of the
 # stiffness). Both are reasons to replace the estimates by a fit to a measured mobility; they are kept unchanged here
@@ -211,7 +212,7 @@ DEFAULT_BELT = BeltProperties(
     # ESTIMATE. Bed: chosen so that the uniform (k = 0) mode, sqrt(s / m) / 2 pi, is at 85 Hz, taken as the first radial
     # resonance of a passenger-car tyre on a fixed rim: s = m (2 pi 85)^2. The 80-100 Hz figure was not found in any
     # source read (the abstracts above only put tension/sidewall control below about 100 Hz); and on the finite strip
-    # the first mode is at about 180 Hz, not 85 Hz (see above).
+    # the first mode is at about 180 Hz (140 Hz with the tread), not 85 Hz (see above).
     bed=9.0 * (2.0 * math.pi * 85.0) ** 2,   # N/m^3 (= 2.57e6), estimate
     # ESTIMATE. Structural loss factor on bending and bed. The earlier note "0.05-0.2 in the tyre literature, e.g.
     # Larsson & Kropp 2002" could not be checked (only the abstract of that paper was read).
