@@ -171,28 +171,28 @@ class BeltProperties:
 #
 # Sources. Every value below is still an ORDER-OF-MAGNITUDE ESTIMATE whose derivation is stated; none is a published
 # fitted value. Searched (session s15, 2026-11-26, the stored public-text index: web pages, documentation, public code
-# repositories) for the parameter tables of Kropp (1989, Appl. Acoust. 26, 181-192), Larsson & Kropp (2002, JSV 253,
-# 889-908), Andersson, Larsson & Kropp (2001), Pinnington (2006, JSV 290, 101-132 and 133-168), Pinnington & Briscoe,
-# Muggleton, Mace & Brennan (2003), Le Bot et al. (2017, JSV 392, 187-199; 2018, R. Soc. open sci. 5:180639), Kropp's
-# thesis, Hoever's thesis (Chalmers 2014) and Hoever & Kropp (2015), and for open code implementing Kropp's
-# orthotropic plate tyre model. Only abstracts and first pages could be read; no parameter table, and no code holding
-# bending stiffness, tension, mass per area, bed stiffness or loss factor of a tyre belt, was found. Kropp (1989) itself
-# was found only in reference lists. What the abstracts read DO say (frequencies only, no levels), used in
-# tyreroad/belt_mobility.py (PUBLISHED_MOBILITY) and docs/belt.md as a check, not as values here:
+# repositories) for the parameter tables of Kropp (1989, Appl. Acoust. 26(3), 181-192), Larsson & Kropp (2002, JSV
+# 253, 889-908), Andersson, Larsson & Kropp (2001), Andersson & Larsson (2005), Pinnington (2006, JSV 290, 101-132 and
+# 133-168), Pinnington & Briscoe, Muggleton, Mace & Brennan (2003), Le Bot et al. (2017, JSV 392, 187-199; 2018,
+# R. Soc. open sci. 5:180639), Kropp's thesis, Hoever's thesis (Chalmers 2014) and Hoever & Kropp (2015), and for
+# open code implementing Kropp's orthotropic plate tyre model. Only abstracts and first pages could be read; no
+# parameter table, and no code holding bending stiffness, tension, mass per area, bed stiffness or loss factor of a
+# tyre belt, was found; Kropp (1989) itself was found only in reference lists. What the abstracts read DO say
+# (frequencies only, no levels), used in tyreroad/belt_mobility.py (PUBLISHED_MOBILITY) and docs/belt.md as a check,
+# not as values here:
 #   * Pinnington & Briscoe, "A wave model for a pneumatic tyre belt" (J. Sound Vib., abstract): tension and the sidewall
 #     control the deformation and stiffness below 100 Hz, waves propagate around the belt above; for a car tyre the
 #     modal behaviour is observed to cease above about 400 Hz, where the tyre at the input appears of infinite extent.
-#   * Muggleton, Mace & Brennan (2003), J. Sound Vib. (abstract; two-plate wave model of a tyre on a rigid rim under a
-#     line force, in "reasonable agreement" with experiments on an inflated tyre on a wheel rim): stiffness-like below
-#     100 Hz, resonant 100-500 Hz, tending towards an infinite orthotropic plate above 500 Hz.
-# Measured against them (tyreroad/belt_mobility.py, docs/belt.md), this belt is stiff at the bottom (its first
-# strip mode n = 0, m = 1 is at about 180 Hz bare and 140 Hz with the 10 mm tread riding on it as a mass, not below
-# 100 Hz: the lateral tension across the simply supported width, T_y (pi / W)^2 = 8.5e6 N/m^3, outweighs the bed
-# s = 2.6e6 N/m^3) and too lightly damped at the top (its point
-# mobility stays within a factor 1.5 of the infinite plate 1 / (8 sqrt(sqrt(D_x D_y) m)) only above about 1.1 kHz and
-# within a factor 1.3 above about 1.9 kHz, not from 400-500 Hz; the tension, lossless here, carries much of the
-# stiffness). Both are reasons to replace the estimates by a fit to a measured mobility; they are kept unchanged here
-# because no published values were found.
+#   * Muggleton, Mace & Brennan (2003), J. Sound Vib. 264(4), 929-950 (abstract; two-plate wave model of a tyre on a
+#     rigid rim under a line force, in "reasonable agreement" with experiments on an inflated tyre on a wheel rim):
+#     stiffness-like below 100 Hz, resonant 100-500 Hz, tending towards an infinite orthotropic plate above 500 Hz.
+# Measured against them (tyreroad/belt_mobility.py, docs/belt.md), this belt is stiff at the bottom (its first strip
+# mode n = 0, m = 1 is at about 180 Hz bare and 140 Hz with the 10 mm tread riding on it as a mass, not below 100 Hz:
+# the lateral tension across the simply supported width, T_y (pi / W)^2 = 8.5e6 N/m^3, outweighs the bed
+# s = 2.6e6 N/m^3) and too lightly damped at the top (its point mobility stays within a factor 1.5 of the infinite
+# plate 1 / (8 sqrt(sqrt(D_x D_y) m)) only above about 1.1 kHz and within a factor 1.3 above about 1.9 kHz, not from
+# 400-500 Hz; the tension, lossless here, carries much of the stiffness). Both are reasons to replace the estimates by
+# a fit to a measured mobility; they are kept unchanged here because no published values were found.
 DEFAULT_BELT = BeltProperties(
     # ESTIMATE. Steel-cord belt package (two steel plies + cap + carcass, ~4-5 mm of rubber-steel laminate) of
     # effective bending modulus ~0.5 GPa: D = E' t^3 / 12 ~ 3-4 N m. Cords near the circumferential direction:

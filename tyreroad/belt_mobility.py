@@ -51,6 +51,10 @@ frequencies only, and the figure draws them as bands:
   (Re Y) of a typical passenger-car tyre falls steadily above 1 kHz, which they trace to the transducer's mass
   (20 g: 12 dB between measured and corrected conductance), so a measured fall-off there is an artefact, and the
   flat high-frequency conductance of the model is what a corrected measurement should show.
+* Andersson & Larsson (2005, Acta Acustica united with Acustica 91, 121-131, abstract; not in the table, it gives no
+  frequencies): a two-layer (tread + belt) model agrees well with measured radial point mobilities of a tyre,
+  "capturing the local behaviour at the excitation point", and with the radial transfer mobilities, once the
+  measurement equipment is included in the model.
 
 Against these the default belt (whose parameters are estimates, not fitted values) agrees qualitatively
 (stiffness-like at the bottom, resonant in the middle, plate-like with a flat conductance at the top) but its first
@@ -65,7 +69,9 @@ References
 ----------
 Pinnington, R. J. & Briscoe, A. R., A wave model for a pneumatic tyre belt, J. Sound Vib. (abstract read).
 Muggleton, J. M., Mace, B. R. & Brennan, M. J. (2003), Vibrational response prediction of a pneumatic tyre using an
-orthotropic two-plate wave model, J. Sound Vib. (abstract read).
+orthotropic two-plate wave model, J. Sound Vib. 264(4), 929-950 (abstract read).
+Andersson, P. & Larsson, K. (2005), Validation of a high frequency three-dimensional tyre model, Acta Acustica
+united with Acustica 91(1), 121-131 (abstract read).
 Boulahbal, D., Muthukrishnan, M. & Shanshal, Y. (2003), Tire mobility measurements: compensation for transducer and
 mounting effects, SAE Technical Paper 2003-01-1531. doi:10.4271/2003-01-1531 (abstract read).
 Cremer, L., Heckl, M. & Petersson, B. A. T. (2005), Structure-Borne Sound, 3rd ed., Springer (infinite plate).
@@ -146,14 +152,15 @@ class PublishedStatement:
 _PB = ("Pinnington, R. J. & Briscoe, A. R., 'A wave model for a pneumatic tyre belt', J. Sound Vib. "
        "(abstract read at slh.alljournals.cn; year, volume and pages not read)")
 _MMB = ("Muggleton, J. M., Mace, B. R. & Brennan, M. J. (2003), 'Vibrational response prediction of a pneumatic tyre "
-        "using an orthotropic two-plate wave model', J. Sound Vib. (abstract read)")
+        "using an orthotropic two-plate wave model', J. Sound Vib. 264(4), 929-950 (abstract read)")
 _BMS = ("Boulahbal, D., Muthukrishnan, M. & Shanshal, Y. (2003), 'Tire mobility measurements: compensation for "
         "transducer and mounting effects', SAE Technical Paper 2003-01-1531, doi:10.4271/2003-01-1531 (abstract read)")
 
 #: What published sources say about measured tyre mobilities, as far as they could be read (session s15): only
 #: abstracts, which give frequency ranges and no mobility levels, so no entry has ``level_lo``/``level_hi``.
 #: Searched and not found with numbers: Kropp (1989), Larsson & Kropp (2002), Andersson, Larsson & Kropp (2001),
-#: Pinnington (2006), Bolton/Kim, Le Bot et al. (2017, 2018), Hoever (2014 thesis), Hoever & Kropp (2015).
+#: Andersson & Larsson (2005), Pinnington (2006), Bolton/Kim, Le Bot et al. (2017, 2018), Hoever (2014 thesis),
+#: Hoever & Kropp (2015).
 PUBLISHED_MOBILITY: tuple[PublishedStatement, ...] = (
     PublishedStatement(
         "P&B <100 Hz", _PB, "car tyre (not named in the abstract)", "not stated in the abstract",
