@@ -48,9 +48,10 @@ frequencies only, and the figure draws them as bands:
 * Muggleton, Mace & Brennan (2003, abstract; tyre on a rim, line force, model in reasonable agreement with
   experiment): stiffness-like below 100 Hz, resonant 100-500 Hz, towards an infinite orthotropic plate above 500 Hz.
 * Boulahbal, Muthukrishnan & Shanshal (2003, SAE 2003-01-1531, abstract): the measured drive-point conductance
-  (Re Y) of a typical passenger-car tyre falls steadily above 1 kHz, which they trace to the transducer's mass
-  (20 g: 12 dB between measured and corrected conductance), so a measured fall-off there is an artefact, and the
-  flat high-frequency conductance of the model is what a corrected measurement should show.
+  (Re Y) of a typical passenger-car tyre falls steadily above 1 kHz, "a-typical since SEA theory predicts such
+  conductance should remain relatively flat"; they trace it to the transducer's mass (20 g: measured and corrected
+  conductance 12 dB apart) and, less, to the local contact stiffness of the tread. The model's conductance stays
+  flat there, as their SEA expectation has it.
 * Andersson & Larsson (2005, Acta Acustica united with Acustica 91, 121-131, abstract; not in the table, it gives no
   frequencies): a two-layer (tread + belt) model agrees well with measured radial point mobilities of a tyre,
   "capturing the local behaviour at the excitation point", and with the radial transfer mobilities, once the
