@@ -136,20 +136,26 @@ def _envelope(t, on=0.08, off=0.32, width=0.02):
 
 
 def test_harmonic_force_periodic_steady_state(tread):
-    """(b, d) A force cos(w0 t) with a whole number of periods over the record and no padding is the periodic
-    steady state itself: v = Re(i w0 transfer e^{i w0 t}) to 1e-6 (measured 2e-12), default belt and tread.
+    """(b, d) Forces Re(A_e exp(i w0 t)) on a 5 x 3 patch (random complex A_e) with a whole number of periods over the
+    record and no padding are the periodic steady state itself: the velocity at a fixed point is
+    Re(i w0 sum_e transfer(x - x_e, y - y_e) A_e e^{i w0 t}) to 1e-6 (measured 1e-12), default belt and tread.
     A stiff belt (all stiffnesses x 1e12) does not move: below 1e-9 of the default belt's velocity."""
     fs, n, f0 = 12800.0, 1000, 640.0  # 1000 samples: a fast FFT length; 50 periods
     t = np.arange(n) / fs
     w0 = 2 * math.pi * f0
-    force, ex, ey = _one_element(n, np.cos(w0 * t))
-    xo, yo = 0.007, 0.001
+    rng = np.random.default_rng(7)
+    amp = rng.standard_normal((5, 3)) + 1j * rng.standard_normal((5, 3))
+    force = (amp[None] * np.exp(1j * w0 * t)[:, None, None]).real
+    ex, ey = (np.arange(5) - 2.0) * C, (np.arange(3) - 1.0) * C
+    xo, yo = 0.007, 0.0023
     track = np.full((1, n), xo)
     info = {}
     v = belt_velocity_at_points(force, ex, ey, fs, track, [yo], tread, DEFAULT_BELT, C, pad_time=0.0,
                                 max_frequency=800.0, info=info)[0]
     assert info["n_fft"] == n
-    expected = (1j * w0 * _transfer(tread, [[xo, yo]], [w0])[0, 0] * np.exp(1j * w0 * t)).real
+    offsets = np.stack(np.meshgrid(xo - ex, yo - ey, indexing="ij"), axis=-1).reshape(-1, 2)
+    field = np.sum(_transfer(tread, offsets, [w0])[0] * amp.ravel())
+    expected = (1j * w0 * field * np.exp(1j * w0 * t)).real
     assert np.abs(v - expected).max() <= 1e-6 * np.abs(expected).max()
     stiff = belt_velocity_at_points(force, ex, ey, fs, track, [yo], tread, DEFAULT_BELT.scaled(1e12), C,
                                     pad_time=0.0, max_frequency=800.0)[0]
