@@ -34,7 +34,7 @@ modes than the surface correction; measured against k_max = 50 / h at 0-6 kHz an
 of the offset alone (odd lateral modes, cos(ky dy)), as the ring correction does: exact for sources on the centre
 line, an approximation for the strip's 20 mm of the 160 mm belt (the even modes' sin(ky y_e) sin(ky y) terms).
 
-Cost. tau, K_b depend on |k| only; the exact two-port at every mode costs ~0.15 s per frequency (the reference,
+Cost. tau, K_b depend on |k| only; the exact two-port at every mode costs ~0.2 s per frequency (the reference,
 ``port_step=None``). With ``port_step`` they are interpolated (4-point Lagrange, mirrored at k = 0) from a uniform
 |k| grid, and the modes below ``exact_below`` (where Z + K_b can nearly cancel) are evaluated exactly: with
 step 0.02 / h and exact below 3 / h the transfer changes by < 5e-10 relative (0-6 kHz; step 0.05 / h: 2e-8), at
@@ -190,7 +190,7 @@ def _two_port_s(k, s, modulus_s, poisson, density, thickness):
 
 
 class _ExactPort:
-    """tau, K_b of the two-port solver at every mode's |k| (the reference; ~0.15 s per frequency for the 4.8e4
+    """tau, K_b of the two-port solver at every mode's |k| (the reference; ~0.2 s per frequency for the 4.8e4
     modes of the default tyre)."""
 
     def __init__(self, modes: _Modes, poisson, density, thickness):
@@ -287,7 +287,7 @@ def belt_displacement_transfer(offsets, element_size, omega, modulus, poisson, d
     extent : float
         k_max factor (>= 1) of the truncation k_max = extent x max(25 / h, 1.5 k_s + 20 / h).
     port_step : float, optional
-        |k| step [rad/m] of the interpolated two-port (None: exact at every mode, ~0.15 s per frequency for the
+        |k| step [rad/m] of the interpolated two-port (None: exact at every mode, ~0.2 s per frequency for the
         default tyre; 0.02 / h: < 5e-10 relative, ~40x faster).
     exact_below : float, optional
         With ``port_step``: modes with |k| below it [rad/m] are evaluated exactly (default 0: none; 3 / h used by
