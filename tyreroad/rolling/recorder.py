@@ -41,6 +41,9 @@ class RollingResult:
         The stiffest tangent spring of each step [N/m].
     stability : tyreroad.stability.StabilityRecord or None
         Dynamic passes from the stage datasets: the kernel's fs/2 limit and the alternation.
+    element_force : numpy.ndarray or None
+        F_e of every step [N], shape (n, nx, ny), when the recorder was built with ``record_forces=True``
+        (the input of :func:`tyreroad.belt_vibration.belt_velocity_at_points`); None otherwise.
     """
 
     time: np.ndarray
@@ -56,6 +59,7 @@ class RollingResult:
     residual: np.ndarray
     max_spring_stiffness: np.ndarray
     stability: StabilityRecord | None = None
+    element_force: np.ndarray | None = None
 
 
 class RollingRecorder:
@@ -71,9 +75,12 @@ class RollingRecorder:
         The pass (its lever arms x_e - x_c).
     snapshot_steps : sequence of int
         Steps whose element forces are kept.
+    record_forces : bool
+        Also keep the element forces of every step (n_steps x nx x ny float64: 48 MB for 150 x 20 elements and
+        2000 steps), for the belt vibration (:mod:`tyreroad.belt_vibration`); default False.
     """
 
-    def __init__(self, loading: RollingPass, snapshot_steps: Sequence[int]):
+    def __init__(self, loading: RollingPass, snapshot_steps: Sequence[int], record_forces: bool = False):
         n = loading.n_steps
         self.loading = loading
         self.shape = loading.shape
@@ -87,6 +94,7 @@ class RollingRecorder:
         self.max_spring_stiffness = np.zeros(n)
         self.snapshot_steps = np.asarray(sorted(set(int(s) for s in snapshot_steps)), dtype=np.int64)
         self.snapshots = np.zeros((self.snapshot_steps.size, loading.shape[0] * loading.shape[1]))
+        self.element_forces = np.zeros((n, loading.shape[0] * loading.shape[1])) if record_forces else None
 
     #: the march need not linearise the states of a pass (no tangent is kept)
     wants_tangent = False
@@ -105,6 +113,8 @@ class RollingRecorder:
         where = np.flatnonzero(self.snapshot_steps == n)
         if where.size:
             self.snapshots[where[0]] = f
+        if self.element_forces is not None:
+            self.element_forces[n] = f
 
     def result(self, loading: RollingPass, n_steps: int | None = None) -> RollingResult:
         n = self.force.size if n_steps is None else n_steps
@@ -124,4 +134,6 @@ class RollingRecorder:
             krylov_iterations=self.krylov_iterations[:n].copy(),
             residual=self.residual[:n].copy(),
             max_spring_stiffness=self.max_spring_stiffness[:n].copy(),
+            element_force=(None if self.element_forces is None
+                           else self.element_forces[:n].reshape((n,) + tuple(self.shape)).copy()),
         )
