@@ -1,6 +1,83 @@
-r"""The flexible belt's part of the march kernel as a rational memory (issue 26): pole-residue model in z.
+r"""The flexible belt's part of the march kernel as a rational memory (issue 26): a pole-residue model in z.
 
-DOCSTRING_PLACEHOLDER
+With the belt behind the tread the element Green's function is g_belt = :func:`tyreroad.greens.element_frf` +
+Delta g, Delta g from :func:`tyreroad.belt.belt_element_frf_correction_ring`. The belt is lightly damped and rings
+for tens of ms (its first ring modes, 136-300 Hz, have an effective damping ratio of ~0.04 once the tread rides on
+them), far beyond the L = 256 kept lags, and the tread's creep reaches it too, so the creep tail
+(:class:`tyreroad.memory.TailModel`) cannot hold it. This module fits
+
+    G_b(z) = D(d) + sum_j rho_j(d) / (1 - z_j z^-1),      z = exp(i omega / fs),
+
+to Delta g(d, omega) on the patch's offsets d and runs it as recursive filters:
+
+* lags 0 ... L - 1 (:meth:`BeltKernel.lags`: D + sum rho_j at lag 0, Re sum rho_j z_j^l after) are added to the
+  rigid kernel's kept lags; :class:`BeltMemory` (delay L, the :class:`tyreroad.kernel.MemoryModel` protocol)
+  holds lags >= L, so that a caller combines it with the creep tail in a :class:`tyreroad.history.HistorySum`.
+  Lags and memory together are G_b exactly (tests: 1e-12);
+* :class:`BeltHistory`: one complex state per pole pair (or real pole) and element, s_j <- z_j s_j + F[n - L],
+  fed by a delay line of L force fields as :class:`tyreroad.history.TailHistory`; the spatial sum
+  Re sum_j R_j (x) s_j, R_j = rho_j z_j^L, on an exact low-rank factorisation of the tables (SVD, singular values
+  down to 1e-15 of the largest kept).
+
+Offsets
+-------
+The belt is orthotropic (D_x != D_y, T_x != T_y): Delta g is even in dx and in dy but not symmetric under
+x <-> y, so the tables are indexed by (|dx|, |dy|) (:func:`belt_offsets`, :func:`belt_table_index`), not by the
+x <-> y reduced :func:`tyreroad.greens.unique_offsets`. x is circumferential; the patch is centred on the belt.
+
+Data
+----
+:func:`belt_correction_table`: the ring-and-strip mode sum of :func:`tyreroad.belt.belt_element_frf_correction_ring`
+(same modes and truncation), with the cosine projections factored over the patch's product grid of offsets (two
+matrix products instead of one sum per offset) and tau^2, K_b (functions of |k| only) interpolated from Chebyshev
+panels in |k| instead of one two-port solve per mode (a numba loop): 1e-11 of |Delta g_00| from the direct sum,
+0.04 s per frequency for a 20 x 20 patch instead of 0.2 s. E(omega) is ``material.modulus(omega)``, E(0) at f = 0.
+
+Fit
+---
+Grid: f = 0 (the sum rule), 6 per decade over f_min = 1e-4 Hz ... f_low = 1 Hz (the tread's creep reaches the
+belt: Delta g_00 falls 5 % from 0 to 0.5 Hz, as E(omega) of the fractional tread rises) and geometric at ratio
+1.04 from 1 Hz to fs / 2 (2 points per half-power band of the least damped ring mode, 8 %); the geometric midpoints are
+the validation set, and the grid is refined once with them if the fit misses them. Weight 1 / |g_00 + Delta g_00|
+per frequency: errors are relative to the total element FRF at the excitation element, the fidelity's scale.
+Poles: 2 real poles per decade, fixed, over f_min / 10 ... 30 Hz (the creep), and pole pairs relocated by relaxed
+vector fitting in z (Gustavsen & Semlyen 1999, Gustavsen 2006; basis 1 / (z - p) for the relocation, pairs in
+their real form, the columns QR-compressed as Deschrijver et al. 2008) on the few real-linear combinations of the
+offsets that carry the weighted data (an SVD of [Re; Im], dropping singular values below 1e-5: 23 of the 400
+offsets of a 20 x 20 patch), unstable poles reflected into the unit disc; residues and the real direct term by
+least squares per offset (so they are exactly rank 23: what keeps :class:`BeltHistory` cheap). The pole count is
+the smallest of 8 ... 40 pairs within 10 % of the best error above f_low.
+
+What the fit cannot do: causality
+---------------------------------
+The belt's loss factor is frequency independent (Z has (1 + i eta) on bending and bed): a hysteretic loss, which
+is not causal. Delta g(omega = 0) is complex (Im = -1.75 % of Re for the default belt, 2.9e-3 of |g_00 total|),
+and no real impulse response has a complex sum; over the band the non-causal part stays at ~1e-3 of |g_00|. The
+best causal fit therefore stalls: 2.6e-3 of |g_00| in 10 Hz - 5 kHz for the default belt however many poles, while
+the same fit of the same belt without loss (eta = 0, causal: only the tread damps it) reaches 4e-4 with 32 pairs
+(3 x 3 patch).
+Below f_low only the real part is fitted (the causal model's imaginary part follows from it), and at f = 0 the
+real part Re Delta g(0) (the sum rule); the dropped imaginary parts are reported (``imag_at_zero``,
+``static_imag``). At fs / 2 any real kernel is real: |Im Delta g(fs / 2)| = 4.6e-4 of |g_00| is missed there.
+The 1e-3 target (and 1e-3 rad) of issue 26 needs a causal belt loss in :mod:`tyreroad.belt` (e.g. viscous or
+fractional on bending and bed); the fit here then reaches it unchanged.
+
+Measured (benchmarks/belt_kernel_fit.py: default tread, DEFAULT_BELT, 20 x 20 patch of 1 mm, fs = 51.2 kHz,
+L = 256, 2 shared cores): fit 24 s (568 frequencies); 62 poles (24 relocated pairs + 14 fixed real); max error
+2.6e-3 of |g_00 total| over 10 Hz - 5 kHz (phase 2.6e-3 rad at the excitation element), 3.4e-3 over 1 Hz - fs/2,
+6.6e-3 over 0 - fs/2 (at 0.3 Hz, in the creep range, the non-causal loss); passivity: min over f_min ... fs/2 of
+-Im(g_00 + G_b,00) / |g_00| = 0.017 (passive); BeltHistory per step (median), 20 x 20: dense 1.3 ms (one
+400 x 9200 matrix-vector product, 29 MB), fft 0.9 ms; states + delay line 1.2 MB.
+
+References
+----------
+Gustavsen, B. & Semlyen, A. (1999), Rational approximation of frequency domain responses by vector fitting,
+IEEE Trans. Power Delivery 14(3), 1052-1061. doi:10.1109/61.772353
+Gustavsen, B. (2006), Improving the pole relocating properties of vector fitting, IEEE Trans. Power Delivery
+21(3), 1587-1592. doi:10.1109/TPWRD.2005.860281
+Deschrijver, D., Mrozowski, M., Dhaene, T. & De Zutter, D. (2008), Macromodeling of multiport systems using a
+fast implementation of the vector fitting method, IEEE Microwave Wireless Compon. Lett. 18(6), 383-385.
+doi:10.1109/LMWC.2008.922585
 """
 
 from __future__ import annotations
@@ -11,7 +88,7 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 from . import checks
 from .belt import BeltProperties, _sinc, belt_impedance, layer_two_port
@@ -305,27 +382,32 @@ def _basis_z(x, poles, kind):
     return np.concatenate(cols, axis=1)
 
 
-def _realify(a):
-    return np.concatenate([a.real, a.imag], axis=0)
+def _realify(a, imag=None):
+    """[Re a; Im a] stacked along the first axis; ``imag`` (n_f,) scales the imaginary rows (weights)."""
+    if imag is None:
+        return np.concatenate([a.real, a.imag], axis=0)
+    scale = imag.reshape((-1,) + (1,) * (a.ndim - 1))
+    return np.concatenate([a.real, a.imag * scale], axis=0)
 
 
-def _relocate(x, data, weight, poles, fixed):
+def _relocate(x, data, weight, poles, fixed, imag=None):
     """One relaxed vector-fitting relocation of ``poles`` (Gustavsen 2006; QR-compressed columns, Deschrijver
     2008), with the ``fixed`` poles in the fit's basis but not relocated (the creep's real poles).
 
-    data (n_f, n_col) complex, weight (n_f,) real. Returns the zeros of sigma (the new poles, unstabilised).
+    data (n_f, n_col) complex, weight (n_f,) real, ``imag`` (n_f,) extra weight of the imaginary parts.
+    Returns the zeros of sigma (the new poles, unstabilised).
     """
     n_f = x.size
     phi = _basis_z(x, poles, "pole")
     n = phi.shape[1]
     own = np.concatenate([_basis_z(x, fixed, "march"), phi, np.ones((n_f, 1))], axis=1) * weight[:, None]
-    own = _realify(own)
+    own = _realify(own, imag)
     own = own / np.linalg.norm(own, axis=0)
     q, _ = np.linalg.qr(own)
     sig_basis = np.concatenate([phi, np.ones((n_f, 1))], axis=1)
     blocks = []
     for k in range(data.shape[1]):
-        sig = _realify(-sig_basis * (data[:, k] * weight)[:, None])
+        sig = _realify(-sig_basis * (data[:, k] * weight)[:, None], imag)
         # sigma's equations in the orthogonal complement of this column's own unknowns
         proj = sig - q @ (q.T @ sig)
         blocks.append(np.linalg.qr(proj, mode="r"))
@@ -356,14 +438,15 @@ def _relocate(x, data, weight, poles, fixed):
     return np.linalg.eigvals(lam - np.outer(b, ct) / d)
 
 
-def _fit_residues(x, data, weight, poles):
+def _fit_residues(x, data, weight, poles, imag=None):
     """Least-squares residues and direct term of G = D + sum_j rho_j / (1 - p_j x) for fixed poles.
 
     Returns (rho (n_p, n_col) complex, conjugate-closed as ``poles``; D (n_col,) real).
     """
-    basis = _realify(np.concatenate([_basis_z(x, poles, "march"), np.ones((x.size, 1))], axis=1) * weight[:, None])
+    basis = _realify(np.concatenate([_basis_z(x, poles, "march"), np.ones((x.size, 1))], axis=1) * weight[:, None],
+                     imag)
     norm = np.linalg.norm(basis, axis=0)
-    coef = np.linalg.lstsq(basis / norm, _realify(data * weight[:, None]), rcond=None)[0] / norm[:, None]
+    coef = np.linalg.lstsq(basis / norm, _realify(data * weight[:, None], imag), rcond=None)[0] / norm[:, None]
     real, upper = _pole_groups(poles)
     nr = real.size
     rho = np.empty((nr + 2 * upper.size, data.shape[1]), dtype=complex)
@@ -392,15 +475,15 @@ def _creep_poles(sample_rate, f_low, f_high, per_decade):
     return np.exp(-2.0 * np.pi * np.geomspace(f_low, f_high, n) / sample_rate).astype(complex)
 
 
-def _vector_fit(x, data, weight, n_pairs, fixed, sample_rate, n_iter=20):
+def _vector_fit(x, data, weight, n_pairs, fixed, sample_rate, n_iter=20, imag=None):
     """Relaxed VF of ``n_pairs`` pole pairs beside the ``fixed`` poles; returns the best iterate
     (poles (fixed first), rho, D, max weighted error)."""
     poles = _initial_poles(n_pairs, sample_rate)
     best = None
     for _ in range(n_iter):
-        poles = _clean_poles(_relocate(x, data, weight, poles, fixed))
+        poles = _clean_poles(_relocate(x, data, weight, poles, fixed, imag))
         allp = np.concatenate([fixed, poles])
-        rho, d = _fit_residues(x, data, weight, allp)
+        rho, d = _fit_residues(x, data, weight, allp, imag)
         err = float(np.max(np.abs(_evaluate(x, allp, rho, d) - data) * weight[:, None]))
         if best is None or err < best[3]:
             best = (allp, rho, d, err)
@@ -435,18 +518,23 @@ def _compress(data, weight, tolerance):
     return cols, vt[:r], float(s[r]) if r < s.size else 0.0
 
 
-def _fit_on(x, data, weight, n_pairs_list, fixed, sample_rate, compress_tol, n_iter):
+def _fit_on(x, data, weight, n_pairs_list, fixed, sample_rate, compress_tol, n_iter, imag, select):
     """Vector fits with each pole count of ``n_pairs_list`` on compressed columns; residues for every
-    column. Returns a list of (n_pairs, poles, rho, D, max weighted error on the fit grid)."""
+    column. Returns a list of (n_pairs, poles, rho, D, max weighted error of what was fitted on the grid, the same
+    on the frequencies ``select``)."""
     cols, vt, dropped = _compress(data, weight, compress_tol)
     out = []
     for n_pairs in n_pairs_list:
-        poles, rho_c, d_c, _ = _vector_fit(x, cols, weight, n_pairs, fixed, sample_rate, n_iter)
+        poles, rho_c, d_c, _ = _vector_fit(x, cols, weight, n_pairs, fixed, sample_rate, n_iter, imag)
         rho, d = rho_c @ vt, d_c @ vt
-        err = float(np.max(np.abs(_evaluate(x, poles, rho, d) - data) * weight[:, None]))
-        out.append((n_pairs, poles, rho, d, err))
-        logger.info("belt kernel fit: %d pole pairs + %d real poles, max error %.2e of |g_00| on %d frequencies "
-                    "(%d SVD columns, dropped %.1e)", n_pairs, fixed.size, err, x.size, cols.shape[1], dropped)
+        diff = _evaluate(x, poles, rho, d) - data
+        if imag is not None:
+            diff = diff.real + 1j * diff.imag * imag[:, None]
+        err = np.max(np.abs(diff) * weight[:, None], axis=1)
+        out.append((n_pairs, poles, rho, d, float(err.max()), float(err[select].max())))
+        logger.info("belt kernel fit: %d pole pairs + %d real poles, max error %.2e of |g_00| on %d frequencies, "
+                    "%.2e above f_low (%d SVD columns, dropped %.1e)", n_pairs, fixed.size, err.max(), x.size,
+                    err[select].max(), cols.shape[1], dropped)
     return out
 
 
@@ -475,7 +563,7 @@ def fit_belt_kernel(material, belt: BeltProperties, shape, element_size: float, 
     n_lags : int
         L, the kept lags of the march kernel the belt's lags are added to (the memory starts there).
     tolerance : float
-        Target max error relative to |g_00 total| on the fit grid [1]: the smallest pole count of
+        Target max error relative to |g_00 total| on the fit grid above f_low [1]: the smallest pole count of
         ``pole_pairs`` reaching it is taken, else the smallest within 10 % of the best one.
     pole_pairs : sequence of int
         Pole-pair counts tried (relocated by vector fitting).
@@ -542,11 +630,18 @@ def fit_belt_kernel(material, belt: BeltProperties, shape, element_size: float, 
     dg_mid, w_mid = data_at(mid)
     x_mid = np.exp(-2j * np.pi * mid / fs)
     for attempt in range(2):
-        fits = _fit_on(x, dg, w_fit, pole_pairs, fixed, fs, compress_tolerance, n_iter)
-        errs = np.array([fit[4] for fit in fits])
+        # below f_low only the real part is fitted: the imaginary part there is held by the belt's
+        # frequency-independent loss, which is not causal (Im Delta g(omega -> 0) != 0); the causal model's own
+        # imaginary part follows from its real part (module docstring)
+        imag = np.where((f > 0.0) & (f < f_low), 0.0, 1.0)
+        fits = _fit_on(x, dg, w_fit, pole_pairs, fixed, fs, compress_tolerance, n_iter, imag, f >= f_low)
+        # the pole count is chosen on the resonance range: below f_low the error is the loss's non-causal part,
+        # which more poles do not reduce
+        errs = np.array([fit[5] for fit in fits])
         ok = np.flatnonzero((errs <= tol) | (errs <= 1.1 * errs.min()))
-        n_pairs, poles, rho, direct, err_fit = fits[int(ok[0])]
-        err_mid = float(np.max(np.abs(_evaluate(x_mid, poles, rho, direct) - dg_mid) * w_mid[:, None]))
+        n_pairs, poles, rho, direct, _, err_fit = fits[int(ok[0])]
+        hi = mid >= f_low
+        err_mid = float(np.max(np.abs(_evaluate(x_mid[hi], poles, rho, direct) - dg_mid[hi]) * w_mid[hi, None]))
         if attempt == 1 or err_mid <= max(1.5 * err_fit, tol):
             break
         logger.info("belt kernel fit: validation error %.2e > 1.5 x fit error %.2e: refining the grid", err_mid,
@@ -599,7 +694,10 @@ def fit_belt_kernel(material, belt: BeltProperties, shape, element_size: float, 
         diagnostics={
             "max_error": float(err_all.max()),
             "max_error_band": float(err_all[band].max()),
-            "max_error_above_f_min": float(err_all[f_all >= f_min].max()),
+            "max_error_below_f_low": float(err_all[f_all < f_low].max()),
+            "max_error_f_low_to_10_hz": float(err_all[(f_all >= f_low) & (f_all < 10.0)].max(initial=0.0)),
+            "max_error_above_5_khz": float(err_all[f_all > 5000.0].max(initial=0.0)),
+            "error_at_nyquist": float(err_all[np.argmax(f_all)].max()),
             "validation_error": float(np.max(err_all[f.size:])) if mid.size else float("nan"),
             "worst_offset": (int(offs[worst[1], 0]), int(offs[worst[1], 1])),
             "worst_frequency": float(f_all[worst[0]]),
@@ -723,10 +821,11 @@ class BeltKernel:
         d = self.diagnostics
         if not d:
             return f"belt kernel: {self.poles.size} poles"
-        return (f"belt kernel: {d['n_poles']} poles ({d['n_pole_pairs']} relocated pairs, {d['n_fixed_poles']} fixed real), "
-                f"max error {d['max_error']:.2e} of |g_00| over 0 - fs/2 ({d['max_error_band']:.2e} over 10 Hz - 5 kHz, "
-                f"worst offset {tuple(d['worst_offset'])} at {d['worst_frequency']:.4g} Hz), phase {d['phase_error_band']:.2e} "
-                f"rad, passivity min {d['passivity_min']:.3f}, fit {d['fit_seconds']:.0f} s")
+        return (f"belt kernel: {d['n_poles']} poles ({d['n_pole_pairs']} relocated pairs, {d['n_fixed_poles']} fixed "
+                f"real), max error {d['max_error']:.2e} of |g_00| over 0 - fs/2 ({d['max_error_band']:.2e} over "
+                f"10 Hz - 5 kHz, worst offset {tuple(d['worst_offset'])} at {d['worst_frequency']:.4g} Hz), phase "
+                f"{d['phase_error_band']:.2e} rad, passivity min {d['passivity_min']:.3f}, "
+                f"fit {d['fit_seconds']:.0f} s")
 
     # storage in a greens dataset ----------------------------------------------------------------
     def variables(self) -> dict:
@@ -737,7 +836,8 @@ class BeltKernel:
         diag = {k: (list(v) if isinstance(v, tuple) else v) for k, v in self.diagnostics.items()}
         out = {
             "belt_pole_real": (("belt_pole",), self.poles.real.copy(), attrs("1", "belt kernel pole z_j, real part")),
-            "belt_pole_imag": (("belt_pole",), self.poles.imag.copy(), attrs("1", "belt kernel pole z_j, imaginary part")),
+            "belt_pole_imag": (("belt_pole",), self.poles.imag.copy(),
+                               attrs("1", "belt kernel pole z_j, imaginary part")),
             "belt_residue_real": (("belt_pole", "dx", "dy"), self.residues.real.copy(),
                                   attrs("m/N", "belt kernel residue rho_j of 1 / (1 - z_j / z), real part")),
             "belt_residue_imag": (("belt_pole", "dx", "dy"), self.residues.imag.copy(),
