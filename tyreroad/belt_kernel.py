@@ -302,8 +302,9 @@ def belt_correction_table(material, belt: BeltProperties, shape, element_size: f
     Delta g from :func:`tyreroad.belt.belt_element_frf_correction_ring` (the ring-and-strip mode sum; the
     same modes, truncation and two-port, with the cosine projections factored over the patch's product grid
     of offsets and the two-port interpolated in |k|: equal to it to 1e-11 of |Delta g_00|), with the tread's
-    E(omega) = ``material.modulus(omega)``; at f = 0 that is the material's zero-frequency modulus ``material.modulus(0)`` (E(omega -> 0), the modulus
-    the kernel's sum rule refers to; the quasi-static modulus is used by :attr:`BeltKernel.static` only).
+    E(omega) = ``material.modulus(omega)``; at f = 0 that is the material's zero-frequency modulus
+    ``material.modulus(0)`` (E(omega -> 0), the modulus the kernel's sum rule refers to; the quasi-static modulus
+    is used by :attr:`BeltKernel.static` only).
 
     Parameters
     ----------
