@@ -146,5 +146,5 @@ def test_run_belt_mobility_writes_file_and_figure(tread_cfg, tmp_path):
     assert "loss_factor: 0.2" in back.attrs["config"]
     np.testing.assert_array_equal(back.mobility_real.values, ds.mobility_real.values)
     assert (tmp_path / "m.png").is_file()
-    with pytest.raises(ValueError, match="unknown parameter"):
+    with pytest.raises(ValueError, match="unknown belt property"):
         run_belt_mobility("tread", tread_cfg, {"stiffness": 1.0}, tmp_path / "x.nc", tmp_path / "x.png")

@@ -74,8 +74,8 @@ only the sum over the cross modes is truncated.
 
 References
 ----------
-Kropp, W. (1989), Structure-borne sound on a smooth tyre, Applied Acoustics 26, 181-192.
-doi:10.1016/0003-682X(89)90084-7
+Kropp, W. (1989), Structure-borne sound on a smooth tyre, Applied Acoustics 26, 181-192 (DOI not verified here:
+reference lists disagree between 10.1016/0003-682X(89)90084-7 and 10.1016/0003-682X(89)90051-0).
 Larsson, K. & Kropp, W. (2002), A high-frequency three-dimensional tyre model based on two coupled elastic
 layers, J. Sound Vib. 253(4), 889-908. doi:10.1006/jsvi.2001.4073
 Cremer, L., Heckl, M. & Petersson, B. A. T. (2005), Structure-Borne Sound, 3rd ed., Springer (infinite-plate

@@ -809,6 +809,28 @@ class BeltKernel:
         out[:, :, 0] += self.direct
         return out
 
+    def referenced(self, weights) -> "BeltKernel":
+        """The kernel measured from its weighted mean over the offsets: every table minus sum_d table[d] w[d].
+
+        With w the patch-mean weights (:func:`tyreroad.belt_stage.patch_mean_weights`) this is the belt's part
+        measured from the belt's mean position under the patch (``belt.reference: patch_mean``). The mean of a
+        pole-residue model is one with the same poles (the mean of the residues), so the result is exact.
+
+        Parameters
+        ----------
+        weights : array_like
+            w[dx, dy] [1], the table's shape (X, Y).
+        """
+        w = np.asarray(weights, dtype=float)
+        if w.shape != self.table_shape:
+            raise ValueError(f"weights: expected the table's shape {self.table_shape}, got {w.shape}")
+
+        def minus_mean(t):
+            return t - np.einsum("...xy,xy->...", t, w)[..., None, None]
+
+        return BeltKernel(self.poles, minus_mean(self.residues), minus_mean(self.direct), minus_mean(self.static),
+                          self.sample_rate, self.element_size, {**self.diagnostics, "reference": "weighted mean"})
+
     def memory(self, n_lags: int) -> "BeltMemory":
         """The belt's lags >= n_lags as a recursive memory (:class:`BeltMemory`, delay n_lags)."""
         return BeltMemory(self, n_lags)

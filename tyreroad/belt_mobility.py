@@ -473,16 +473,13 @@ def mobility_figure(ds: xr.Dataset, out_png, reference: Sequence[PublishedStatem
 
 
 def _belt_from_config(belt_cfg: Mapping[str, Any] | None) -> BeltProperties:
-    """``DEFAULT_BELT`` with the fields given in ``belt_cfg`` replaced (None: ``DEFAULT_BELT``)."""
-    if belt_cfg is None:
-        return DEFAULT_BELT
+    """``DEFAULT_BELT`` with the fields given in ``belt_cfg`` replaced (None: ``DEFAULT_BELT``; the config's
+    ``belt.properties``, checked by :func:`tyreroad.belt_stage.belt_from_config`)."""
+    from .belt_stage import belt_from_config
+
     if isinstance(belt_cfg, BeltProperties):
         return belt_cfg
-    names = {fl.name for fl in fields(BeltProperties)}
-    unknown = sorted(set(belt_cfg) - names)
-    if unknown:
-        raise ValueError(f"belt: unknown parameter(s) {unknown}; expected some of {sorted(names)}")
-    return BeltProperties(**{**asdict(DEFAULT_BELT), **{k: float(v) for k, v in belt_cfg.items()}})
+    return belt_from_config(belt_cfg)
 
 
 def run_belt_mobility(material_name: str, material_cfg: Mapping[str, Any], belt_cfg_or_None, out_nc, out_png,

@@ -650,6 +650,24 @@ def _check_qlv_springs(config: Mapping[str, Any]) -> None:
             raise _wrap(exc, "springs") from None
 
 
+def _check_belt(config: Mapping[str, Any]) -> None:
+    """The flexible belt (issue 26): its properties make a valid belt, and its study runs on a kernel that has
+    a belt memory (not the Radau stage kernel)."""
+    section = config.get("belt")
+    if not section:
+        return
+    from .belt_stage import belt_from_config
+
+    try:
+        belt_from_config(section.get("properties"), "belt.properties")
+    except ValueError as exc:
+        raise _wrap(exc, "belt.properties") from None
+    own = (config.get("greens", {}) or {}).get("construction", _GREENS.construction)
+    if section.get("study", False) and own == "radau":
+        raise ConfigError("belt.study: true with greens.construction = 'radau': the Radau stage kernel has no belt "
+                          "memory; use greens.construction: passive (or fold, seed) for the belt study")
+
+
 def _check_hard_contact(config: Mapping[str, Any]) -> None:
     """Hard contact (springs.model: hard) in the study's dynamic runs needs the stage kernel (greens.construction:
     radau): its penalty springs (1e10 N/m by default) are far past every single-stage kernel's stability limit
@@ -828,6 +846,7 @@ def check_config(config: Mapping[str, Any], base_dir: str | Path = ".") -> None:
     _check_solver_and_study(config)
     _check_package_settings(config)
     _check_hard_contact(config)
+    _check_belt(config)
     for name, spec in config["surfaces"].items():
         surface_plan(name, spec, base_dir)
     _check_rolling(config)

@@ -316,7 +316,8 @@ def design_correction(lags: np.ndarray, tail_compliance=None, weights=(), decays
                       sample_rate: float = 51200.0, band: float = 5000.0, fidelity_budget: float = 4e-3,
                       k_target: float = DEFAULT_K_TARGET, margin: float = 3e-7, n_taps: int = 128,
                       n_theta: int = 512, n_phi: int = 16, max_rounds: int = 12, symmetry: bool = True,
-                      n_dense: int | None = None, longer_taps: int | None = None) -> Correction:
+                      n_dense: int | None = None, longer_taps: int | None = None,
+                      extra_transfer=None) -> Correction:
     """Design the spring-safe correction of a kernel's excitation element (see the module docstring).
 
     Parameters
@@ -355,6 +356,10 @@ def design_correction(lags: np.ndarray, tail_compliance=None, weights=(), decays
         :func:`tyreroad.margin.patch_margin`): the LP starts on the coarse grid and adds every checked point
         its solution violates (cutting planes), so that ``slack >= 0`` holds on the margin's whole grid, not
         only at the coarse points (between them the dense margin found dips below k_target).
+    extra_transfer : callable, optional
+        theta (n,) [rad] -> complex (n, X, Y) tables [m/N] added to the kept lags' and the tail's transfer
+        function: a memory beyond the kept lags other than the creep tail (a flexible belt's recursive filters,
+        :class:`tyreroad.belt_kernel.BeltMemory`), so that the design sees the whole kernel the march runs.
 
     Returns
     -------
@@ -370,6 +375,8 @@ def design_correction(lags: np.ndarray, tail_compliance=None, weights=(), decays
     cx, cy = (lags.shape[0] - 1) // 2, (lags.shape[1] - 1) // 2
     n_grid = 4096
     theta_all, tables = transfer_tables(lags, tail_compliance, weights, decays, n_grid)
+    if extra_transfer is not None:
+        tables = tables + np.asarray(extra_transfer(theta_all))[:, : lags.shape[0], : lags.shape[1]]
     g00 = np.abs(tables[:, cx, cy])
     t_band = 2 * np.pi * band / sample_rate
     coarse = np.unique(np.round(np.r_[np.linspace(0.0, t_band, 48), np.linspace(t_band, np.pi, n_theta)]
@@ -540,12 +547,22 @@ def correct_greens(ds: xr.Dataset, **options) -> tuple[xr.Dataset, Correction]:
     """
     from .kernel import LayerKernel
 
+    from .kernel import MemorySum
+    from .memory import TailModel
+
     kernel = LayerKernel.from_greens(ds, "dynamic")
     lags = kernel.lags
-    mem = kernel.memory
+    fs = float(ds.attrs["sample_rate"])
+    models = kernel.memory.models if isinstance(kernel.memory, MemorySum) else (kernel.memory,)
+    mem = next((m for m in models if isinstance(m, TailModel)), None)
+    others = [m for m in models if m is not None and m is not mem]
+    extra = None
+    if others:  # e.g. a flexible belt's filters: the design must see the whole memory
+        def extra(theta):
+            return sum(m.frequency_response(theta * fs / (2.0 * np.pi), fs) for m in others)
     corr = design_correction(lags, None if mem is None else mem.residual_compliance,
                              () if mem is None else mem.weights, () if mem is None else mem.decays,
-                             sample_rate=float(ds.attrs["sample_rate"]), **options)
+                             sample_rate=fs, extra_transfer=extra, **options)
     out = ds.copy()
     g = apply_correction(ds["g"].transpose("dx", "dy", "lag").values, corr)
     out["g"] = (("dx", "dy", "lag"), g, dict(ds["g"].attrs))

@@ -89,20 +89,31 @@ class KernelFidelity:
 
 
 def kernel_fidelity(kernel: LayerKernel, material, shape, band=FIDELITY_BAND, n_frequencies: int = 160,
-                    phase_floor: float = PHASE_FLOOR) -> KernelFidelity:
-    """:class:`KernelFidelity` of a dynamic kernel against its material's element FRF over an (nx, ny) patch."""
+                    phase_floor: float = PHASE_FLOOR, response=None) -> KernelFidelity:
+    """:class:`KernelFidelity` of a dynamic kernel against its material's element FRF over an (nx, ny) patch.
+
+    ``response``: the exact FRF when it is not the layer's alone (an object with ``frequency_response(f,
+    shape)`` giving complex offset tables [m/N], e.g. :class:`tyreroad.belt_stage.BeltElementFRF` of tread +
+    flexible belt); None: :func:`tyreroad.greens.element_frf` of ``material``."""
     if kernel.element_size is None:
         raise ValueError(f"{kernel.name}: the kernel's element size is needed for its FRF")
     f = np.geomspace(band[0], band[1], int(n_frequencies))
     omega = 2 * np.pi * f
     c = float(kernel.element_size)
-    uniq = unique_offsets(shape)
-    exact = element_frf(uniq * c, c, omega, material.modulus(omega), material.poisson, material.density,
-                        material.thickness)
     tables = kernel.own_frequency_response(f, shape)
     nx, ny = shape
-    a, b = uniq[:, 0], uniq[:, 1]
-    own = tables[:, a + nx - 1, b + ny - 1] if nx >= ny else tables[:, b + nx - 1, a + ny - 1]
+    if response is None:
+        uniq = unique_offsets(shape)  # the layer is isotropic: offsets up to sign and x <-> y
+        a, b = uniq[:, 0], uniq[:, 1]
+        exact = element_frf(uniq * c, c, omega, material.modulus(omega), material.poisson, material.density,
+                            material.thickness)
+        own = tables[:, a + nx - 1, b + ny - 1] if nx >= ny else tables[:, b + nx - 1, a + ny - 1]
+    else:
+        # an orthotropic response (a belt: circumference x, width y): every offset of the first quadrant
+        uniq = np.stack(np.meshgrid(np.arange(nx), np.arange(ny), indexing="ij"), axis=-1).reshape(-1, 2)
+        a, b = uniq[:, 0], uniq[:, 1]
+        exact = np.asarray(response.frequency_response(f, tuple(shape)))[:, a + nx - 1, b + ny - 1]
+        own = tables[:, a + nx - 1, b + ny - 1]
     g0 = np.abs(exact[:, :1])
     err = np.abs(own - exact) / g0
     ratio = own / exact

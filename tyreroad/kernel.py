@@ -46,7 +46,7 @@ from .solver import SolverSettings
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["MemoryModel", "LayerKernel", "KERNEL_MODES"]
+__all__ = ["MemoryModel", "MemorySum", "LayerKernel", "KERNEL_MODES"]
 
 #: The kinds of kernel a greens file holds, by the run mode that uses them.
 KERNEL_MODES = ("dynamic", "quasistatic")
@@ -76,6 +76,50 @@ class MemoryModel(Protocol):
 
     def describe(self) -> str:  # pragma: no cover - protocol
         ...
+
+
+class MemorySum:
+    """Several memory models beyond the same kept lags acting together (the creep tail and a flexible belt's
+    recursive filters, :mod:`tyreroad.belt_kernel`): their histories are summed, and so are their transfer
+    functions.
+
+    Parameters
+    ----------
+    models : sequence of MemoryModel
+        All with the same ``delay`` (the kept lags L).
+    """
+
+    def __init__(self, models):
+        self.models = tuple(m for m in models if m is not None)
+        if not self.models:
+            raise ValueError("MemorySum: expected at least one memory model")
+        delays = {int(m.delay) for m in self.models}
+        if len(delays) != 1:
+            raise ValueError(f"MemorySum: the models start at different lags {sorted(delays)}; expected one delay")
+        for m in self.models:
+            if not isinstance(m, MemoryModel):
+                raise TypeError(f"MemorySum: {type(m).__name__} lacks the MemoryModel protocol")
+        self.delay = delays.pop()
+
+    def history(self, shape, method: str, workers: int = 1) -> History:
+        """The models' histories summed (:class:`tyreroad.history.HistorySum`)."""
+        return HistorySum([m.history(shape, method, workers) for m in self.models])
+
+    def frequency_response(self, frequencies, sample_rate: float) -> np.ndarray:
+        """The sum of the models' transfer functions beyond the kept lags, (n_f, X, Y) complex [m/N]."""
+        total = None
+        for m in self.models:
+            part = np.asarray(m.frequency_response(frequencies, sample_rate))
+            total = part if total is None else total + part
+        return total
+
+    def describe(self) -> str:
+        """What the log says of this memory."""
+        return " + ".join(m.describe() for m in self.models)
+
+    def part(self, kind: type):
+        """The first model of type ``kind`` (None without one)."""
+        return next((m for m in self.models if isinstance(m, kind)), None)
 
 
 @dataclass(frozen=True, eq=False)
@@ -201,6 +245,12 @@ class LayerKernel:
             )
             r = greens["tail_compliance"].transpose("dx", "dy").values
             memory = TailModel.from_spectrum(r, spectrum, fs, int(greens.sizes["lag"]))
+        if int(greens.attrs.get("belt", 0)):
+            # a flexible belt behind the tread (tyreroad.belt_stage): its recursive filters beside the tail
+            from .belt_kernel import BeltKernel
+
+            belt = BeltKernel.from_dataset(greens).memory(int(greens.sizes["lag"]))
+            memory = belt if memory is None else MemorySum([memory, belt])
         backing = None
         if material is not None:
             # the layer's uniform-load transfer at the file's rate, on at least 4096 points

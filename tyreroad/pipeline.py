@@ -172,22 +172,27 @@ def run_greens(
     n_elements: Sequence[int],
     element_size: float,
     out_nc: str | Path,
+    belt_cfg: Mapping[str, Any] | None = None,
 ) -> None:
-    """Stage ``greens``: the layer's element Green's functions for one material (:func:`build_greens`)."""
+    """Stage ``greens``: the layer's element Green's functions for one material (:func:`build_greens`);
+    with ``belt_cfg`` (the config's ``belt`` section), tread + flexible belt (:mod:`tyreroad.belt_stage`)."""
+    from .belt_stage import belt_settings
     from .greens import GreensSettings
 
     material = _material(material_name, material_cfg)
-    ds = build_greens(material, n_elements, float(element_size), GreensSettings.from_config(greens_cfg))
+    ds = build_greens(material, n_elements, float(element_size), GreensSettings.from_config(greens_cfg),
+                      belt=belt_settings(belt_cfg))
     provenance = {
         "material": {material_name: dict(material.config)},
         "greens": dict(greens_cfg),
         "n_elements": list(n_elements),
         "element_size": element_size,
+        **({} if belt_cfg is None else {"belt": dict(belt_cfg)}),
     }
     io.write_dataset(ds, out_nc, provenance, stage="greens", material=material_name)
 
 
-def build_greens(material, n_elements: Sequence[int], element_size: float, settings) -> xr.Dataset:
+def build_greens(material, n_elements: Sequence[int], element_size: float, settings, belt=None) -> xr.Dataset:
     """The kernel the greens stage makes for a material and patch, under ``settings.construction``.
 
     One place for what every time-domain user of a kernel runs on (the greens stage, the sensitivity
@@ -202,6 +207,9 @@ def build_greens(material, n_elements: Sequence[int], element_size: float, setti
     element_size : float
         [m].
     settings : tyreroad.greens.GreensSettings
+    belt : (tyreroad.belt.BeltProperties, str), optional
+        A flexible belt behind the tread and the indentation's reference (:func:`tyreroad.belt_stage.add_belt`,
+        added before the spring-safe correction, so that it and the checks see the whole kernel); None: rigid.
 
     Returns
     -------
@@ -221,6 +229,14 @@ def build_greens(material, n_elements: Sequence[int], element_size: float, setti
         n_fft=settings.n_fft,
         construction=settings.construction,
     )
+    response = None
+    if belt is not None:
+        from .belt_stage import add_belt
+
+        if settings.construction == "radau":
+            raise ValueError("greens.construction = 'radau' with a flexible belt: the Radau stage kernel has no belt "
+                             "memory; use passive, fold or seed")
+        ds, response = add_belt(ds, material, belt[0], belt[1], shape)
     if settings.construction == "passive":
         from .construction import correct_greens
 
@@ -245,7 +261,7 @@ def build_greens(material, n_elements: Sequence[int], element_size: float, setti
 
         # the stage kernel beside the fold kernel: its tables, margin (inf by construction) and fidelity
         return radau_greens(ds, material, shape)
-    return _judge_kernel(ds, material, shape, settings.construction, support)
+    return _judge_kernel(ds, material, shape, settings.construction, support, response)
 
 
 #: Springs [N/m] the passive correction is designed for, tried in turn until the LP meets one (the last
@@ -259,7 +275,7 @@ PASSIVE_TAPS = (128, 256)
 PASSIVE_DENSE = 1024
 
 
-def _judge_kernel(ds, material, shape, construction: str, support=None):
+def _judge_kernel(ds, material, shape, construction: str, support=None, response=None):
     """The greens stage's checks of its own kernel (issue 23): the stability margin over the unit circle
     and the fidelity to the element FRF, both stored in the file; a kernel that misses its FRF is refused.
 
@@ -277,7 +293,7 @@ def _judge_kernel(ds, material, shape, construction: str, support=None):
     from .margin import patch_margin
 
     kernel = LayerKernel.from_greens(ds, "dynamic")
-    fidelity = kernel_fidelity(kernel, material, shape)
+    fidelity = kernel_fidelity(kernel, material, shape, response=response)  # response: tread + belt
     logger.info("greens %s (%s): fidelity to the element FRF %s", material.name, construction, fidelity.describe())
     if not fidelity.faithful and construction != "seed" and int(ds.attrs.get("causal_material", 1)):
         raise ValueError(
@@ -432,6 +448,7 @@ def run_report(
     spring_comparison: Mapping[str, Any] | None = None,
     claim6_nc: str | Path | None = None,
     figure_pngs: Sequence[str | Path] = (),
+    belt_ncs: Sequence[str | Path] = (),
 ) -> None:
     """``results/report.md``: the seed's claims checked against the measured numbers; given the
     stiffness-spectrum files, the section on K*(f; d0); given ``loading_nc`` (results/loading.nc),
@@ -440,7 +457,8 @@ def run_report(
     rolling section is ``results/rolling.md`` of the named target ``rolling``.) Given
     ``spring_comparison`` (config key, issue 24), the section comparing this study with the
     elastic-springs study in ``spring_comparison['elastic_results']``. The figures ``figure_pngs``
-    are embedded with their captions, linked relative to the report."""
+    are embedded with their captions, linked relative to the report. ``belt_ncs``: the study repeated on a
+    flexible belt (results/belt/study.nc, its greens files and stiffness spectra, by folder), set beside this one."""
     import os
 
     from .report import build_report, write_report
@@ -460,6 +478,7 @@ def run_report(
         constructions=_construction_studies(construction_ncs, construction_greens_ncs),
         claim6=None if claim6_nc is None else io.read_dataset(claim6_nc),
         figures=[Path(os.path.relpath(p, Path(out_md).parent)).as_posix() for p in figure_pngs],
+        belt=_belt_study(belt_ncs),
     )
     if spring_comparison:
         from .report.spring_comparison import spring_comparison_section
@@ -468,6 +487,19 @@ def run_report(
                                           Path(out_md).parent, spring_comparison["elastic_results"])
         text = text.rstrip("\n") + "\n\n" + "\n".join(lines).rstrip("\n") + "\n"
     write_report(text, out_md)
+
+
+def _belt_study(belt_ncs):
+    """(study, greens datasets, K* datasets) of the belt study's files (results/belt/...), or None without them."""
+    from .study import open_study
+
+    paths = [Path(p) for p in belt_ncs]
+    study = [p for p in paths if p.name == "study.nc"]
+    if not study:
+        return None
+    greens = [io.read_dataset(p) for p in paths if p.parent.name == "greens"]
+    spectra = [io.read_dataset(p) for p in paths if "stiffness_spectrum" in p.parts]
+    return open_study(study[0]), greens, spectra
 
 
 def _construction_studies(study_ncs, greens_ncs) -> dict:

@@ -73,7 +73,6 @@ import xarray as xr
 
 from . import checks
 from .contact import PreloadStates, preload_states, run_loading_path, solve_path
-from .greens import ElementFRF
 from .influence import contact_set_solve, contact_set_stiffness_krylov
 from .kernel import LayerKernel
 from .loading import IndentationPath
@@ -524,7 +523,10 @@ def spectrum_from_datasets(surface: xr.Dataset, springs: xr.Dataset, greens: xr.
     relaxed.check_element_size(surface.attrs.get("element_size"))
     z1 = surface["z1"].transpose("ex", "ey").values
     table = springs_for_run(springs, SpringTable.from_dataset(springs))
-    return stiffness_spectrum(z1, table, relaxed, ElementFRF(material, relaxed.element_size), material,
+    from .belt_stage import response_of
+
+    # the layer's element FRF, or tread + belt's for a greens file built with the flexible belt
+    return stiffness_spectrum(z1, table, relaxed, response_of(greens, material), material,
                               relaxed.sample_rate, spectrum, settings, threads, method,
                               layer=LayerKernel.from_greens(greens, "dynamic", material))
 

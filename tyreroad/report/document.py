@@ -21,6 +21,7 @@ from .sections import (
     cases_section,
     claims_section,
     construction_section,
+    belt_section,
     config_section,
     claim6_section,
     decides_section,
@@ -54,6 +55,7 @@ REPORT_SECTIONS: tuple[Section, ...] = (
     cases_section,
     stability_section,
     construction_section,
+    belt_section,
     stiffness_spectrum_section,
     surface_section,
     material_section,
@@ -87,6 +89,7 @@ def build_report(
     constructions: Mapping[str, tuple] | None = None,
     claim6: xr.Dataset | None = None,
     figures: Sequence[str] = (),
+    belt: tuple | None = None,
 ) -> str:
     """The markdown text of ``results/report.md``.
 
@@ -123,6 +126,9 @@ def build_report(
     figures : sequence of str, optional
         Figure files as paths relative to the report's folder (``figures/fig5_force.png``): the
         section that shows each with its caption; empty omits it.
+    belt : tuple, optional
+        (study dataset, greens datasets, K* datasets) of the study repeated with the flexible belt
+        (``belt.study``, results/belt/): the section that sets it beside this one; None omits it.
 
     Returns
     -------
@@ -159,6 +165,8 @@ def build_report(
             for name, (study_ds, g) in (constructions or {}).items()},
         claim6=claim6,
         figures=tuple(figures),
+        belt=None if belt is None else (belt[0], greens_by_material(belt[1]), evaluate_context(
+            ClaimContext(belt[0], settings, variants, thresholds)), list(belt[2])),
     )
     return _assemble(REPORT_SECTIONS, ctx)
 

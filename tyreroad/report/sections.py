@@ -75,6 +75,9 @@ class ReportContext:
     figures : sequence of str
         The report's figures, as paths relative to the report's folder (``figures/fig5_force.png``):
         embedded with their captions (:mod:`tyreroad.report.figures`).
+    belt : tuple or None
+        (study dataset, greens by material, claim results, K* datasets) of the study repeated with the flexible
+        belt behind the tread (``belt.study``, results/belt/).
     rolling_reference : xarray.Dataset or None
         The rolling study with elastic contact springs that this (QLV) one is compared with
         (``spring_comparison.elastic_results``/rolling.nc); ``rolling_reference_label`` names its folder, and a
@@ -96,6 +99,7 @@ class ReportContext:
     figures: Sequence[str] = ()
     rolling_reference: xr.Dataset | None = None
     rolling_reference_label: str = ""
+    belt: tuple | None = None
 
 
 def figures_section(ctx: ReportContext) -> list[str]:
@@ -703,6 +707,93 @@ def construction_section(ctx: ReportContext) -> list[str]:
                                      for k, (a, b, c_) in ctx.constructions.items()}).values()]
         lines.append(f"| {n} | {c.claim} | {c.verdict} ({c.measured}) | " + " | ".join(others) + " |")
     return lines + [""]
+
+
+#: Frequencies [Hz] at which the belt section compares K* (the stiffness spectrum's default report frequencies).
+_BELT_SPECTRUM_FREQUENCIES = (100.0, 1000.0, 5000.0)
+
+
+def belt_section(ctx: ReportContext) -> list[str]:
+    """The study beside the same study on a flexible belt (issue 26): the seed's first limitation answered with
+    K_sat per case, the claims, the belt kernels' fit, margin and fidelity, and K* of the reference."""
+    if ctx.claims is None or ctx.belt is None:
+        return []
+    belt_study, belt_greens, belt_results, belt_spectra = ctx.belt
+    study = ctx.claims.study
+    materials = [str(m) for m in ctx.claims.settings.materials]
+    any_greens = next(iter(belt_greens.values()), None)
+    reference = "?" if any_greens is None else str(any_greens.attrs.get("belt_reference", "?"))
+    props = "" if any_greens is None else ", ".join(
+        f"{k[5:]} {float(any_greens.attrs[k]):.4g}" for k in sorted(any_greens.attrs)
+        if k.startswith("belt_") and k not in ("belt_reference", "belt_reference_patch"))
+    lines = [
+        "## The flexible belt: the seed's first limitation",
+        "",
+        "The paper keeps the tread on a rigid belt and says that with a flexible belt, with its waves and modes, "
+        "\"the results may be slightly affected but this is not further investigated\". Here every run of the "
+        "study was repeated on the kernel of tread + belt (`tyreroad.belt`: a pre-tensioned orthotropic plate on an "
+        "elastic bed, coupled exactly through the tread layer as a two-port; ring-and-strip mode sum; its memory "
+        "as recursive filters, `tyreroad.belt_kernel`). Belt: " + props + " (SI units).",
+        "",
+        f"The indentation is measured from the belt's mean position under the patch (`belt.reference: {reference}`"
+        "; `tyreroad.belt_stage`): the belt's own large-scale deflection, which a tyre model resolves itself, is not "
+        "counted as contact compliance; what stays is the belt's deformation across the patch and its dynamics."
+        if reference == "patch_mean" else
+        f"The indentation is measured from the rim (`belt.reference: {reference}`): the tyre's structural "
+        "compliance is in series with the contact.",
+        "",
+        "| material | belt poles | fit error [relative to the magnitude of G_0] | k_crit [N/m] | fidelity (magnitude / phase [rad]) |",
+        "|---|---|---|---|---|",
+    ]
+    for m in materials:
+        ds = belt_greens.get(m)
+        if ds is None:
+            continue
+        k = float(ds["critical_stiffness"]) if "critical_stiffness" in ds else float("nan")
+        fit = float(ds.attrs.get("belt_fit_error", float("nan")))
+        lines.append(f"| {m} | {int(ds.sizes.get('belt_pole', 0))} | {fit:.2e} | "
+                     f"{'every spring' if math.isinf(k) else f'{k:.3g}'} | "
+                     + (f"{float(ds['fidelity_magnitude']):.2%} / {float(ds['fidelity_phase']):.4f} |"
+                        if "fidelity_magnitude" in ds else "- |"))
+    lines += ["", "| case | K_sat, rigid belt [MN/m] | K_sat, flexible belt [MN/m] | change |", "|---|---|---|---|"]
+    labels = study["case"].values.astype(str)
+    other_labels = belt_study["case"].values.astype(str)
+    changes = []
+    for i, label in enumerate(labels):
+        j = np.flatnonzero(other_labels == label)
+        k_own = float(study["saturated_stiffness"].values[i])
+        if j.size == 0:
+            lines.append(f"| {label} | {k_own * _MN:.4f} | - | - |")
+            continue
+        k_belt = float(belt_study["saturated_stiffness"].values[j[0]])
+        changes.append(k_belt / k_own - 1.0)
+        lines.append(f"| {label} | {k_own * _MN:.4f} | {k_belt * _MN:.4f} | {_pct(k_belt / k_own - 1.0)} |")
+    if changes:
+        lines += ["", f"Over the {len(changes)} cases the belt changes K_sat by {_pct(min(changes))} to "
+                  f"{_pct(max(changes))} (median {_pct(float(np.median(changes)))})."]
+    lines += ["", "| # | claim | rigid belt | flexible belt |", "|---|---|---|---|"]
+    by_number = {r.number: r for r in belt_results}
+    for n in sorted(ctx.results):
+        c = ctx.results[n]
+        b = by_number.get(n)
+        lines.append(f"| {n} | {c.claim} | {c.verdict} ({c.measured}) | "
+                     + ("-" if b is None else f"{b.verdict} ({b.measured})") + " |")
+    ref = next((ds for ds in belt_spectra), None)
+    rigid = next((ds for ds in ctx.spectra if str(ds.attrs.get("material")) == str(ref.attrs.get("material"))),
+                 None) if ref is not None else None
+    if ref is not None and rigid is not None:
+        lines += ["", f"K*(f; d0) of `{ref.attrs.get('material')}` (relaxed state), rigid against flexible belt:", "",
+                  "| d0 [mm] | f [Hz] | K', rigid [MN/m] | K', belt [MN/m] | eta_K, rigid | eta_K, belt |",
+                  "|---|---|---|---|---|---|"]
+        for p in range(ref.sizes["preload"]):
+            for f in _BELT_SPECTRUM_FREQUENCIES:
+                sel_b = ref.isel(preload=p).sel(frequency=f, method="nearest")
+                sel_r = rigid.isel(preload=p).sel(frequency=f, method="nearest")
+                lines.append(f"| {float(ref['preload'][p]) * _MM:.3f} | {float(sel_b['frequency']):.0f} | "
+                             f"{float(sel_r['storage_stiffness']) * _MN:.3f} | {float(sel_b['storage_stiffness']) * _MN:.3f} | "
+                             f"{float(sel_r['loss_factor']):.3f} | {float(sel_b['loss_factor']):.3f} |")
+    return lines + ["", "Reading it: `xarray.open_dataset('results/belt/study.nc')` has the study's case labels; "
+                    "`results/belt/greens/<material>.nc` the belt kernels (poles, residues, fit error).", ""]
 
 
 def _run_note(ctx: ReportContext) -> str:

@@ -57,6 +57,8 @@ localrules:
     study,
     study_figures,
     construction_study,
+    belt_study,
+    belt_mobility,
     claim6,
     report,
     loading_study,
@@ -211,6 +213,7 @@ def all_targets():
         *loading_outputs(),
         *construction_outputs(),
         *claim6_outputs(),
+        *belt_outputs(),
     ]
 
 
@@ -317,6 +320,27 @@ def construction_runs(construction):
 def construction_outputs():
     """The comparison studies and their greens files (report inputs), one per compared construction."""
     return [f"{R}/constructions/{c}/study.nc" for c in COMPARE_CONSTRUCTIONS]
+
+
+# The study repeated with a flexible belt behind the tread (config section `belt`; rules in belt.smk).
+BELT = config.get("belt", {}) or {}
+BELT_STUDY = bool(BELT.get("study", False))
+
+
+def belt_runs():
+    """Every study run (both modes) on the greens files of tread + belt."""
+    return [run.replace(f"{R}/contact/", f"{R}/belt/contact/", 1) for run in all_contact_runs()]
+
+
+def belt_outputs():
+    """The belt study, its greens files and the reference material's K* with the belt (report inputs)."""
+    if not BELT_STUDY:
+        return []
+    ref = STUDY["reference_material"]
+    spectra = ([f"{R}/belt/stiffness_spectrum/{STUDY_SURFACE}/{ref}.nc"]
+               if config.get("stiffness_spectrum") else [])
+    return [f"{R}/belt/study.nc", *[f"{R}/belt/greens/{m}.nc" for m in STUDY["materials"]], *spectra,
+            f"{R}/belt/mobility.nc", f"{R}/figures/belt_mobility.png"]
 
 
 def construction_greens():

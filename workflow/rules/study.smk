@@ -42,6 +42,7 @@ rule report:
         constructions=construction_outputs(),
         construction_greens=construction_greens(),
         claim6=claim6_outputs(),
+        belt=belt_outputs(),  # the study on a flexible belt (belt.study): study.nc, greens, K* of the reference
         figures=report_figures(),  # embedded in report.md with their captions
     output:
         md=f"{R}/report.md",

@@ -16,4 +16,5 @@ pipeline.run_greens(
     n_elements=snakemake.params.n_elements,
     element_size=snakemake.params.element_size,
     out_nc=snakemake.output.nc,
+    belt_cfg=getattr(snakemake.params, "belt", None),  # rule belt_greens: tread + flexible belt
 )

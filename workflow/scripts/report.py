@@ -23,4 +23,5 @@ pipeline.run_report(
     spring_comparison=snakemake.params.get("spring_comparison"),
     claim6_nc=snakemake.input.claim6[0] if snakemake.input.get("claim6") else None,
     figure_pngs=snakemake.input.get("figures", []),
+    belt_ncs=snakemake.input.get("belt", []),
 )

@@ -1,0 +1,94 @@
+"""The flexible belt in the pipeline (issue 26, tyreroad.belt_stage): config, the element FRF of tread + belt with
+its indentation reference, and the greens file with the belt (kernel, memory, margin, fidelity)."""
+
+import numpy as np
+import pytest
+
+from tyreroad import belt as beltmod
+from tyreroad.belt_stage import (
+    BeltElementFRF,
+    belt_from_config,
+    belt_settings,
+    patch_mean_weights,
+)
+from tyreroad.config import ConfigError, check_config
+from tyreroad.greens import ElementFRF
+from tyreroad.material import material_from_config
+
+TREAD = {
+    "model": "fractional_kelvin_voigt", "E0": 2.5e7, "E1": 5.0e7, "alpha": 0.24, "f1": 1000.0,
+    "poisson_ratio": 0.49, "density": 1100.0, "thickness": 0.01,
+}
+
+
+@pytest.fixture(scope="module")
+def tread():
+    return material_from_config("tread", {"tread": TREAD})
+
+
+def test_config_properties_replace_the_defaults_and_bad_keys_are_named():
+    b = belt_from_config({"loss_factor": 0.05, "mass": 12.0})
+    assert b.loss_factor == 0.05 and b.mass == 12.0 and b.tension_x == beltmod.DEFAULT_BELT.tension_x
+    assert belt_from_config(None) == beltmod.DEFAULT_BELT
+    with pytest.raises(ValueError, match=r"belt\.properties\.stiffness: unknown belt property"):
+        belt_from_config({"stiffness": 1.0})
+    with pytest.raises(ValueError, match=r"belt\.properties: .*mass"):
+        belt_from_config({"mass": -1.0})
+    assert belt_settings(None) is None
+    assert belt_settings({"reference": "rim"})[1] == "rim"
+    with pytest.raises(ValueError, match=r"belt\.reference = 'hub'"):
+        belt_settings({"reference": "hub"})
+
+
+def test_planning_refuses_a_bad_belt_and_the_radau_kernel():
+    import yaml
+
+    cfg = yaml.safe_load(open("config/config.yaml"))
+    cfg["belt"] = {"study": True, "properties": {"mass": 0.0}}
+    with pytest.raises(ConfigError, match=r"belt\.properties.*mass"):
+        check_config(cfg)
+    cfg["belt"] = {"study": True, "properties": {}}
+    cfg["greens"]["construction"] = "radau"
+    with pytest.raises(ConfigError, match=r"belt\.study: true with greens\.construction = 'radau'"):
+        check_config(cfg)
+
+
+def test_patch_mean_weights():
+    shape = (3, 2)
+    w = patch_mean_weights(shape)
+    assert w.sum() == pytest.approx(1.0, abs=1e-15)
+    # the mean over the patch of the response to a uniform unit total load, done element by element
+    rng = np.random.default_rng(1)
+    g = rng.normal(size=(5, 3))
+    g = g + g[::-1, ::-1]  # even
+    mean = sum(g[i - k + 2, j - m + 1] for i in range(3) for j in range(2) for k in range(3) for m in range(2)) / 36
+    assert np.sum(g * w) == pytest.approx(mean, rel=1e-14)
+
+
+def test_element_frf_with_a_stiff_belt_is_the_layers(tread):
+    """belt stiffness -> inf: tread + belt gives the rigid-belt element FRF within 1e-10 relative."""
+    f = np.array([0.0, 100.0, 1000.0, 5000.0])
+    stiff = beltmod.DEFAULT_BELT.scaled(1e12)
+    rigid = ElementFRF(tread, 1e-3).frequency_response(f, (3, 3))
+    for reference in ("rim", "patch_mean"):
+        both = BeltElementFRF(tread, stiff, 1e-3, reference, (3, 3)).frequency_response(f, (3, 3))
+        assert np.max(np.abs(both - rigid)) < 1e-10 * np.abs(rigid[:, 2, 2]).min()
+
+
+def test_patch_mean_reference_removes_the_belts_mean_and_keeps_its_shape(tread):
+    """'patch_mean': the belt part has zero patch mean; it differs from 'rim' by one constant per frequency, which
+    at 0 Hz is most of the belt's compliance (the belt deflects as a whole under the patch)."""
+    f = np.array([0.0, 300.0])
+    shape = (4, 3)
+    rim = BeltElementFRF(tread, beltmod.DEFAULT_BELT, 1e-3, "rim").belt_part(f, shape)
+    mean = BeltElementFRF(tread, beltmod.DEFAULT_BELT, 1e-3, "patch_mean", shape).belt_part(f, shape)
+    w = patch_mean_weights(shape)
+    assert np.abs(np.einsum("fxy,xy->f", mean, w)).max() < 1e-12 * np.abs(rim[:, 3, 2]).max()
+    shift = rim - mean
+    assert np.ptp(shift.real, axis=(1, 2)).max() < 1e-12 * np.abs(rim).max()
+    # at 0 Hz the removed mean is > 90 % of the belt's compliance at the loaded element
+    assert shift[0, 0, 0].real > 0.9 * rim[0, 3, 2].real > 0
+    # the belt's deformation across a 4 x 3 mm patch stays: the loaded element gives more than its neighbours
+    assert mean[0, 3, 2].real > mean[0, 6, 2].real
+    # the loaded element's belt part is orthotropic: x (circumference) and y (width) neighbours differ
+    assert abs(rim[0, 4, 2] - rim[0, 3, 3]) > 1e-6 * abs(rim[0, 3, 2])

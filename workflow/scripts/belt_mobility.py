@@ -1,0 +1,16 @@
+"""Snakemake adapter for rule belt_mobility."""
+import os
+
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, str(snakemake.threads))  # noqa: F821 (snakemake is injected)
+
+from tyreroad import belt_mobility, log
+
+log.configure(snakemake.log[0])
+belt_mobility.run_belt_mobility(
+    material_name=snakemake.params.name,
+    material_cfg=snakemake.params.material,
+    belt_cfg_or_None=snakemake.params.belt,
+    out_nc=snakemake.output.nc,
+    out_png=snakemake.output.png,
+)
