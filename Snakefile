@@ -19,6 +19,7 @@ include: "workflow/rules/loading.smk"
 include: "workflow/rules/sensitivity.smk"
 include: "workflow/rules/stiffness.smk"
 include: "workflow/rules/rolling.smk"
+include: "workflow/rules/belt_rolling.smk"
 
 
 rule all:

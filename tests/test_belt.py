@@ -139,11 +139,12 @@ def test_belt_properties_validation():
 
 
 def test_belt_impedance_values():
-    """Z at the k = 0 bed resonance is i eta s; each term of Z at a chosen (kx, ky) (exact arithmetic values)."""
-    b = DEFAULT_BELT
+    """Z at the k = 0 bed resonance is i eta s (hysteretic loss); each term of Z at a chosen (kx, ky) (exact
+    arithmetic values)."""
+    b = replace(DEFAULT_BELT, loss_model="hysteretic")
     w0 = np.sqrt(b.bed / b.mass)
     assert abs(belt_impedance(0.0, 0.0, w0, b) - 1j * b.loss_factor * b.bed) <= 1e-15 * b.bed
-    belt = BeltProperties(1.0, 2.0, 3.0, 10.0, 20.0, 0.5, 100.0, 0.25)
+    belt = BeltProperties(1.0, 2.0, 3.0, 10.0, 20.0, 0.5, 100.0, 0.25, loss_model="hysteretic")
     # kx = 2, ky = 1, w = 4: elastic 16 + 2*3*4 + 2 + 100 = 142, tension 40 + 20, mass 8
     assert belt_impedance(2.0, -1.0, 4.0, belt) == pytest.approx(142 * (1 + 0.25j) + 60 - 8, rel=1e-15)
     assert np.all(belt_impedance(*_grid()[:3], DEFAULT_BELT).imag >= 0)
@@ -258,11 +259,11 @@ def test_static_limit(tread, kh):
 
 
 def test_static_limit_small_k_is_springs_in_series(tread):
-    """kh -> 0, w = 0: layer h / M in series with the belt's bed (the uniform mode), 1 / Z = 1 / (s (1 + i eta))."""
+    """kh -> 0, w = 0: layer h / M in series with the belt's bed (the uniform mode), 1 / Z = 1 / (s phi(0))."""
     e0 = float(tread.modulus(0.0).real)
     m = e0 * (1 - tread.poisson) / ((1 + tread.poisson) * (1 - 2 * tread.poisson))
     got = layer_on_belt_compliance(0.0, 0.0, 0.0, e0, tread.poisson, tread.density, tread.thickness, DEFAULT_BELT)
-    ref = tread.thickness / m + 1 / (DEFAULT_BELT.bed * (1 + 1j * DEFAULT_BELT.loss_factor))
+    ref = tread.thickness / m + 1 / (DEFAULT_BELT.bed * DEFAULT_BELT.stiffness_factor(0.0))
     assert abs(got / ref - 1) < 1e-14
 
 
@@ -311,15 +312,16 @@ def test_point_mobility_modal_sum_direct():
 
 
 def test_point_mobility_infinite_plate():
-    """Wide, long, tension- and bed-free isotropic damped plate: Y = 1 / (8 sqrt(B (1 + i eta) m)).
+    """Wide, long, tension- and bed-free isotropic damped plate: Y = 1 / (8 sqrt(B phi m)), phi the causal loss
+    (eta 0.2 at 100 Hz; 0.15 here at 25 kHz).
 
     B = 1 N m, m = 1 kg/m^2, eta = 0.2, L = W = 1 m, k_b = 400 rad/m: the images (ring period, edges) are damped
-    by exp(-k_b eta W / 4) = 2e-9; 400000 cross modes leave a tail of about k_b^2 / (pi K^2) = 3e-8.
+    by exp(-k_b eta W / 4) = 3e-7; 400000 cross modes leave a tail of about k_b^2 / (pi K^2) = 3e-8 (measured 8.5e-8).
     """
     plate = BeltProperties(1.0, 1.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.2, circumference=1.0, width=1.0)
     w = 400.0**2
     got = belt_point_mobility(w, plate, n_modes=400000)
-    ref = 1 / (8 * np.sqrt(1 + 0.2j))
+    ref = 1 / (8 * np.sqrt(plate.stiffness_factor(w)))
     assert abs(got / ref - 1) < 1e-6
     assert got.real > 0
 
@@ -356,7 +358,7 @@ def _z_scalar(kx, ky, w, b):
     """The belt impedance written out again for scalars (the quadratures below call it ~1e5 times)."""
     kx2, ky2 = kx * kx, ky * ky
     bend = b.bending_x * kx2 * kx2 + 2 * b.bending_xy * kx2 * ky2 + b.bending_y * ky2 * ky2 + b.bed
-    return (1 + 1j * b.loss_factor) * bend + b.tension_x * kx2 + b.tension_y * ky2 - b.mass * w * w
+    return b.stiffness_factor(w) * bend + b.tension_x * kx2 + b.tension_y * ky2 - b.mass * w * w
 
 
 def _cquad(f, a, b, eps=1e-12, points=None):
@@ -548,12 +550,13 @@ def test_ring_rigid_limit_and_passivity(tread):
 
 def test_ring_tends_to_plane_at_high_frequency(tread):
     """The images of the ring period and the edges die out as the belt waves shorten and are damped: the ring and
-    the plane agree to 2 % of Delta g at 5 kHz but not at 100 Hz (where the edges shape the belt's deflection)."""
+    the plane agree to 2.5 % of Delta g at 5 kHz (2.01 % measured with the causal loss, eta 0.08 there) but not at
+    100 Hz (where the edges shape the belt's deflection)."""
     f = [100.0, 5000.0]
     ring = _ring(tread, f, DEFAULT_BELT)[:, 0]
     plane = _correction(tread, f, DEFAULT_BELT)[:, 0]
     dev = np.abs(ring / plane - 1)
-    assert dev[1] < 0.02
+    assert dev[1] < 0.025
     assert dev[0] > 0.3
 
 

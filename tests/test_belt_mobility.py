@@ -102,7 +102,8 @@ def test_belt_alone_tends_to_the_infinite_plate():
     b = DEFAULT_BELT
     assert y_inf == pytest.approx(1.0 / (8.0 * math.sqrt(math.sqrt(b.bending_x * b.bending_y) * b.mass)))
     f = np.geomspace(2000.0, 10000.0, 120)
-    r = np.abs(belt_point_mobility(2 * math.pi * f, DEFAULT_BELT)) / y_inf
+    # with the causal loss the bending stiffness at 2-10 kHz is 1.2-1.4 x its 100 Hz value: the plate's level there
+    r = np.abs(belt_point_mobility(2 * math.pi * f, DEFAULT_BELT)) / infinite_plate_mobility(DEFAULT_BELT, 2 * math.pi * f)
     assert 0.8 < r.min() and r.max() < 1.3
     assert np.exp(np.mean(np.log(r))) == pytest.approx(1.0, abs=0.03)
     low = np.abs(belt_point_mobility(2 * math.pi * np.geomspace(20.0, 150.0, 30), DEFAULT_BELT)) / y_inf

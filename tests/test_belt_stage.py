@@ -92,3 +92,83 @@ def test_patch_mean_reference_removes_the_belts_mean_and_keeps_its_shape(tread):
     assert mean[0, 3, 2].real > mean[0, 6, 2].real
     # the loaded element's belt part is orthotropic: x (circumference) and y (width) neighbours differ
     assert abs(rim[0, 4, 2] - rim[0, 3, 3]) > 1e-6 * abs(rim[0, 3, 2])
+
+
+# --- the greens file with the belt --------------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def greens_files(tread):
+    """Greens datasets on a 3 x 3 patch, fold kernel: the rigid belt and the default belt (its fit: ~10 s, the ring
+    sums at ~570 frequencies; belt stiffness -> inf on the kernel's own tables: tests/test_belt_kernel.py)."""
+    from tyreroad.greens import GreensSettings
+    from tyreroad.pipeline import build_greens
+
+    settings = GreensSettings(construction="fold")
+    build = lambda belt: build_greens(tread, (3, 3), 1e-3, settings, belt=belt)  # noqa: E731
+    return {"rigid": build(None), "belt": build((beltmod.DEFAULT_BELT, "patch_mean"))}
+
+
+def test_the_belt_kernel_is_faithful_passive_and_recorded(greens_files, tread):
+    """The whole kernel (tread + belt, lags + tail + belt filters) against the exact FRF of tread + belt: within the
+    greens stage's limits (1 % / 0.01 rad, 10 Hz - 5 kHz); the file records the belt and its fit."""
+    from tyreroad.belt_kernel import BeltMemory
+    from tyreroad.belt_stage import response_of
+    from tyreroad.kernel import LayerKernel, MemorySum
+
+    ds = greens_files["belt"]
+    assert int(ds.attrs["belt"]) == 1 and ds.attrs["belt_reference"] == "patch_mean"
+    assert 0 < ds.attrs["belt_fit_error"] < 4e-3 and ds.attrs["belt_passivity_min"] > 0
+    assert float(ds["fidelity_magnitude"]) < 0.01 and float(ds["fidelity_phase"]) < 0.01
+    kernel = LayerKernel.from_greens(ds, "dynamic")
+    assert isinstance(kernel.memory, MemorySum) and isinstance(kernel.memory.part(BeltMemory), BeltMemory)
+    response = response_of(ds, tread)
+    assert isinstance(response, BeltElementFRF) and response.reference_shape == (3, 3)
+    f = np.array([20.0, 150.0, 1000.0, 4000.0])
+    own, exact = kernel.own_frequency_response(f, (3, 3)), response.frequency_response(f, (3, 3))
+    assert np.abs(own - exact).max() < 0.01 * np.abs(exact[:, 2, 2]).min()
+    # measured from the rim, the belt adds 30-50 % of the compliance at 20-150 Hz; from the belt's patch mean, on a
+    # 3 x 3 mm patch that moves with the belt almost as a whole, less than 0.2 % remains
+    rigid = ElementFRF(tread, 1e-3).frequency_response(f, (3, 3))
+    rim = BeltElementFRF(tread, beltmod.DEFAULT_BELT, 1e-3, "rim").frequency_response(f, (3, 3))
+    assert np.all(np.abs(rim - rigid)[:2, 2, 2] > 0.3 * np.abs(rigid[:2, 2, 2]))
+    assert np.all(np.abs(exact - rigid)[:2, 2, 2] < 2e-3 * np.abs(rigid[:2, 2, 2]))
+    assert np.all(np.abs(exact - rigid)[:2, 2, 2] > 0)
+    # the quasi-static kernel holds the belt's static part measured from the patch mean
+    extra = ds["g_static"].values - greens_files["rigid"]["g_static"].values
+    assert abs(float(np.sum(extra * patch_mean_weights((3, 3))))) < 1e-12 * float(ds["g_static"].max())
+    assert extra[1, 1] > 0 > extra[0, 0]
+
+
+def test_a_run_on_the_belt_kernel_uses_its_memory(greens_files):
+    """A 350-step load-hold-unload cycle on the belt kernel (256 kept lags + creep tail + belt filters) equals the same
+    run on the kernel with all its lags explicit, dense and FFT."""
+    from tyreroad.belt_kernel import BeltKernel
+    from tyreroad.contact import run_loading_path
+    from tyreroad.kernel import LayerKernel
+    from tyreroad.loading import LoadingPreset
+    from tyreroad.solver import SolverSettings
+    from tyreroad.springs import SpringTable, linear_tables
+
+    ds = greens_files["belt"]
+    kernel = LayerKernel.from_greens(ds, "dynamic")
+    fs, n_kept = kernel.sample_rate, kernel.n_lags
+    z1 = -np.random.default_rng(3).uniform(0, 1e-5, size=(3, 3))
+    preset = LoadingPreset("cycle", {"kind": "cycle", "load_speed": 0.05, "d_max": 3e-5, "hold_time": 5e-3,
+                                     "unload_speed": 0.05})
+    loading = preset.loading(z1, "dynamic", fs, 1e-6)
+    n = loading.n_steps
+    assert n_kept < n < 1500  # longer than the kept lags: the memory is used
+    k, f = linear_tables(z1.size, 2e4)
+    springs = SpringTable.checked(k, f, 1e-6, z1.size)
+    tail = kernel.memory.models[0]
+    later = np.arange(n_kept, n)
+    explicit = np.concatenate([kernel.lags, tail.residual_compliance[:, :, None] * tail.sequence(n)[None, None, :]
+                               + BeltKernel.from_dataset(ds).lags(n)[:, :, n_kept:]], axis=2)
+    assert later.size == explicit.shape[2] - n_kept
+    reference = run_loading_path(loading, springs, LayerKernel.dynamic(explicit, fs), SolverSettings(method="dense"))
+    scale = reference.force.max()
+    assert scale > 0.1
+    for method in ("dense", "fft"):
+        res = run_loading_path(loading, springs, kernel, SolverSettings(method=method))
+        np.testing.assert_allclose(res.force, reference.force, rtol=0, atol=1e-10 * scale)

@@ -29,7 +29,7 @@ FAST_MAXWELL = {
     "poisson_ratio": 0.49, "density": 1100.0, "thickness": 0.01,
 }
 # a heavily damped belt (loss on bending and bed 1.0, tensions / 10): its transient decays within ~20 ms
-DAMPED_BELT = dataclasses.replace(DEFAULT_BELT, loss_factor=1.0, tension_x=6.6e3, tension_y=2.2e3)
+DAMPED_BELT = dataclasses.replace(DEFAULT_BELT, loss_factor=1.0, tension_x=6.6e3, tension_y=2.2e3, loss_model="hysteretic")
 
 
 @pytest.fixture(scope="module")

@@ -576,3 +576,31 @@ def test_report_has_the_claim6_table(passing_study):
     assert "(default, figure 7) | ΔK_sat(a = 500 m/s²) | +23.95 % | -23.14 % | **fails** |" in lines[2]
     assert "| -27.80 % | +32.00 % | **fails** |" in lines[3]
     assert "## Claim 6 by loss-variant definition" not in build_report(passing_study, None, None, SETTINGS, VARIANTS)
+
+
+def test_report_sets_the_belt_study_beside_the_rigid_belt(passing_study):
+    """The belt section (issue 26): K_sat per case rigid / flexible with the change, and each claim's verdict on both."""
+    specs = passing_specs()
+    _set(specs, ("ref", "dynamic", 500.0), S=2.75e6 * 0.9)  # the belt softens the reference's dynamic case 10 %
+    belt_study = make_study(specs)
+    greens = []
+    for m in MATERIALS:
+        ds = greens_dataset(m, 1100.0)
+        ds = ds.assign(critical_stiffness=((), 1.2e5), fidelity_magnitude=((), 0.006), fidelity_phase=((), 0.0058))
+        ds = ds.assign(belt_pole_real=("belt_pole", np.zeros(62)))
+        ds.attrs.update(belt=1, belt_reference="patch_mean", belt_reference_patch=[20, 20], belt_fit_error=2.6e-3,
+                        belt_mass=9.0, belt_loss_factor=0.1)
+        greens.append(ds)
+    text = build_report(passing_study, None, None, SETTINGS, VARIANTS, belt=(belt_study, greens, []))
+    part = text[text.index("## The flexible belt"):]
+    part = part[:part.index("\n## ")] if "\n## " in part else part
+    assert "belt's mean position under the patch" in part and "Belt: mass 9, loss_factor 0.1 (SI units)" in part
+    assert "| ref | 62 | 2.60e-03 | 1.2e+05 | 0.60% / 0.0058 |" in part
+    k_ref = float(passing_study["saturated_stiffness"].values[list(passing_study["case"].values).index("ref/dynamic/500")])
+    k_belt = float(belt_study["saturated_stiffness"].values[list(belt_study["case"].values).index("ref/dynamic/500")])
+    assert k_belt / k_ref - 1 == pytest.approx(-0.1, abs=0.02)
+    row = next(line for line in part.splitlines() if line.startswith("| ref/dynamic/500 |"))
+    assert row.endswith(f"| {(k_belt / k_ref - 1) * 100:+.2f} % |")
+    claims = [line for line in part.splitlines() if line[:4] in {f"| {n} " for n in range(1, 10)} | {"| 10"}]
+    assert len(claims) == 10 and all(line.count("**") == 0 for line in claims)
+    assert "## The flexible belt" not in build_report(passing_study, None, None, SETTINGS, VARIANTS)

@@ -238,7 +238,7 @@ def _ring_grid(ax, ay, c, omega, e, poisson, density, thickness, belt, interpola
         bw = (-1.0) ** np.arange(_PANEL_NODES) * np.sin(np.pi * (np.arange(_PANEL_NODES) + 0.5) / _PANEL_NODES)
         nodes = (np.arange(n_panels)[:, None] + 0.5 + 0.5 * t[None, :]) * width
         port = layer_two_port(nodes.ravel(), omega, e, poisson, density, thickness)
-        one_i = 1.0 + 1j * belt.loss_factor
+        one_i = complex(belt.stiffness_factor(omega))
         z_quad = one_i * np.array([belt.bending_x, 2.0 * belt.bending_xy, belt.bending_y])
         z_lin = np.array([belt.tension_x, belt.tension_y, one_i * belt.bed - belt.mass * omega * omega], dtype=complex)
         f = np.empty((kx.size, ky.size), dtype=complex)

@@ -115,6 +115,7 @@ DEFAULT_LABELS = ("point", "x 10 mm", "x 30 mm", "x 100 mm", "y 30 mm")
 _BELT_UNITS = {
     "bending_x": "N m", "bending_y": "N m", "bending_xy": "N m", "tension_x": "N/m", "tension_y": "N/m",
     "mass": "kg/m^2", "bed": "N/m^3", "loss_factor": "1", "circumference": "m", "width": "m",
+    "loss_model": "-", "loss_frequency": "Hz",
 }
 
 
@@ -201,15 +202,21 @@ def default_frequencies(n: int = 60, f_min: float = 20.0, f_max: float = 5000.0)
     return np.geomspace(f_min, f_max, int(n))
 
 
-def infinite_plate_mobility(belt: BeltProperties) -> float:
-    """Point mobility 1 / (8 sqrt(B m'')) [m/(N s)] of the infinite untensioned plate, B = sqrt(D_x D_y).
+def infinite_plate_mobility(belt: BeltProperties, omega=None):
+    """Point mobility |1 / (8 sqrt(B phi(w) m''))| [m/(N s)] of the infinite untensioned plate, B = sqrt(D_x D_y).
 
     Exact for a Huber orthotropic plate (D_xy = sqrt(D_x D_y)) without tension or bed; the belt approaches it at
-    high frequency, where bending and inertia dominate (Cremer, Heckl & Petersson 2005).
+    high frequency, where bending and inertia dominate (Cremer, Heckl & Petersson 2005). phi is the belt's loss
+    factor on bending (:meth:`tyreroad.belt.BeltProperties.stiffness_factor`: with the causal loss the bending
+    stiffness grows with frequency); without ``omega`` [rad/s], phi = 1 (the storage stiffness at the belt's
+    ``loss_frequency``) and a float is returned.
     """
     if not isinstance(belt, BeltProperties):
         raise ValueError(f"belt: expected a BeltProperties, got {type(belt).__name__}")
-    return 1.0 / (8.0 * math.sqrt(math.sqrt(belt.bending_x * belt.bending_y) * belt.mass))
+    b = math.sqrt(belt.bending_x * belt.bending_y)
+    if omega is None:
+        return 1.0 / (8.0 * math.sqrt(b * belt.mass))
+    return np.abs(1.0 / (8.0 * np.sqrt(b * belt.stiffness_factor(omega) * belt.mass)))
 
 
 def _check_offsets(offsets) -> np.ndarray:
@@ -336,9 +343,9 @@ def mobility_dataset(material, belt: BeltProperties = DEFAULT_BELT, element_size
                                    _attrs(unit, "real part of the point mobility of the bare belt (centre line)")),
             "belt_mobility_imag": ("frequency", y["belt_alone"].imag,
                                    _attrs(unit, "imaginary part of the point mobility of the bare belt (centre line)")),
-            "infinite_plate_mobility": ((), infinite_plate_mobility(belt),
-                                        _attrs(unit, "point mobility 1/(8 sqrt(B m'')) of the infinite plate, "
-                                                     "B = sqrt(D_x D_y)")),
+            "infinite_plate_mobility": ("frequency", infinite_plate_mobility(belt, 2.0 * np.pi * f),
+                                        _attrs(unit, "|point mobility| 1/(8 sqrt(B phi m'')) of the infinite plate, "
+                                                     "B = sqrt(D_x D_y), phi the belt's loss factor on bending")),
         },
         coords={
             "frequency": ("frequency", f, _attrs("Hz", "frequency")),
@@ -356,7 +363,7 @@ def mobility_dataset(material, belt: BeltProperties = DEFAULT_BELT, element_size
             "element_size_units": "m",
             "time_convention": "exp(+i omega t); mobility = i omega displacement / force",
             "belt_units": "; ".join(f"{k}: {u}" for k, u in _BELT_UNITS.items()),
-            **{f"belt_{k}": float(v) for k, v in asdict(belt).items()},
+            **{f"belt_{k}": (v if isinstance(v, str) else float(v)) for k, v in asdict(belt).items()},
         },
     )
     logger.info("belt mobility %s: %d frequencies x %d points in %.1f s", ds.attrs["material"], f.size, len(off),
@@ -422,8 +429,8 @@ def mobility_figure(ds: xr.Dataset, out_png, reference: Sequence[PublishedStatem
     ax.loglog(f, np.abs(yr[:, i0]), "k--", lw=1.2, label=f"tread on rigid belt, {labels[i0]}")
     ax.loglog(f, np.abs(yb), color="0.45", ls=":", lw=1.6, label="belt alone, point")
     if "infinite_plate_mobility" in ds:
-        ax.axhline(float(ds["infinite_plate_mobility"]), color="0.6", lw=0.8, ls="-.",
-                   label="infinite plate 1/(8 sqrt(B m''))")
+        ax.loglog(f, ds["infinite_plate_mobility"].values, color="0.6", lw=0.8, ls="-.",
+                  label="infinite plate 1/(8 sqrt(B m''))")
     for s in reference:
         if s.level_lo is None and s.level_hi is None:
             continue
@@ -515,7 +522,7 @@ def run_belt_mobility(material_name: str, material_cfg: Mapping[str, Any], belt_
     ds = mobility_dataset(material, belt, element_size, frequencies, material_name=material_name)
     belt_section = None if belt_cfg_or_None is None else (
         asdict(belt_cfg_or_None) if isinstance(belt_cfg_or_None, BeltProperties) else
-        {k: float(v) for k, v in dict(belt_cfg_or_None).items()})
+        {k: (v if isinstance(v, str) else float(v)) for k, v in dict(belt_cfg_or_None).items()})
     section = {"materials": {material_name: dict(material_cfg)}, "belt": belt_section,
                "element_size": float(element_size)}
     write_dataset(ds, out_nc, section, stage="belt_mobility")

@@ -167,7 +167,8 @@ def belt_of_greens(greens) -> tuple[BeltProperties, str, tuple[int, int]] | None
     """(belt, reference, reference patch) recorded in a greens dataset, or None for a rigid-belt file."""
     if not int(greens.attrs.get("belt", 0)):
         return None
-    props = {f.name: float(greens.attrs[f"belt_{f.name}"]) for f in fields(BeltProperties)}
+    props = {f.name: (str(greens.attrs[f"belt_{f.name}"]) if f.type in (str, "str")
+                      else float(greens.attrs[f"belt_{f.name}"])) for f in fields(BeltProperties)}
     shape = tuple(int(n) for n in np.atleast_1d(greens.attrs["belt_reference_patch"]))
     return BeltProperties(**props), str(greens.attrs["belt_reference"]), shape
 
@@ -223,5 +224,6 @@ def add_belt(ds, material, belt: BeltProperties, reference: str, shape):
                       "belt_fit_error": float(d.get("max_error_band", np.nan)),
                       "belt_fit_error_all": float(d.get("max_error", np.nan)),
                       "belt_passivity_min": float(d.get("passivity_min", np.nan)),
-                      **{f"belt_{f.name}": float(getattr(belt, f.name)) for f in fields(BeltProperties)}})
+                      **{f"belt_{f.name}": (v if isinstance(v, str) else float(v))
+                         for f in fields(BeltProperties) for v in (getattr(belt, f.name),)}})
     return out, BeltElementFRF(material, belt, c, reference, shape)

@@ -111,7 +111,7 @@ import scipy.fft
 import scipy.sparse
 
 from . import checks
-from .belt import BeltProperties, _element_inputs, _sinc, _two_port_numpy, belt_impedance
+from .belt import BeltProperties, _element_inputs, _sinc, _two_port_numpy
 from .rolling.analysis import band_levels, third_octave_centres
 
 __all__ = [
@@ -146,7 +146,8 @@ class _Modes:
 
     ``base`` = (n = 0 ? 1 : 2) (2 / (L W)) sinc(kx c / 2) sinc(ky c / 2): the mode weight of a unit force spread over
     one c x c element on the belt centre line, paired +-n (cos) and projected on sin(ky y) (odd m only);
-    ``z0`` = Z(kx, ky, 0), so that Z(w) = z0 - m w^2.
+    ``elastic`` and ``tension``: Z(s) = phi(s) elastic + tension + m s^2 (phi the belt's loss factor on bending and
+    bed, :meth:`tyreroad.belt.BeltProperties.laplace_stiffness_factor`).
     """
 
     def __init__(self, belt: BeltProperties, element_size: float, k_max: float):
@@ -161,7 +162,10 @@ class _Modes:
         self.k = np.hypot(kxg, kyg)
         weight = np.where(n == 0, 1.0, 2.0)[:, None] * (2.0 / (length * width))
         self.base = weight * _sinc(0.5 * element_size * kxg) * _sinc(0.5 * element_size * kyg)
-        self.z0 = belt_impedance(kxg, kyg, 0.0, belt)
+        kx2, ky2 = kxg * kxg, kyg * kyg
+        self.elastic = (belt.bending_x * kx2 * kx2 + 2.0 * belt.bending_xy * kx2 * ky2 + belt.bending_y * ky2 * ky2
+                        + belt.bed)
+        self.tension = belt.tension_x * kx2 + belt.tension_y * ky2
 
     @property
     def size(self) -> int:
@@ -169,8 +173,11 @@ class _Modes:
 
     def weights(self, s, tau, k_base):
         """Modal weights f_nm = base tau / (Z + K_b) [m/N] at Laplace frequencies s (n_f,) [rad/s] (s = i w on the
-        frequency axis: Z = z0 - m w^2 = z0 + m s^2); tau and k_base (n_f, N_n, N_m)."""
-        z = self.z0[None] + (self.belt.mass * np.asarray(s) ** 2)[:, None, None]
+        frequency axis: Z = phi(s) elastic + tension + m s^2); tau and k_base (n_f, N_n, N_m)."""
+        s = np.asarray(s)
+        phi = self.belt.laplace_stiffness_factor(s)
+        z = (phi[:, None, None] * self.elastic[None] + self.tension[None]
+             + (self.belt.mass * s**2)[:, None, None])
         return self.base[None] * tau / (z + k_base)
 
 

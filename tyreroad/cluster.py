@@ -32,11 +32,12 @@ __all__ = ["CLUSTER_RULES", "job_resources", "run_steps", "rolling_pass_steps", 
 #: Rules that run as cluster jobs (the others are ``localrules``).
 CLUSTER_RULES = ("prepare_surface", "element_springs", "greens", "contact", "loading_run", "stiffness_spectrum",
                  "rolling_greens", "rolling_run", "sensitivity_point", "construction_greens", "construction_contact",
-                 "belt_greens", "belt_contact", "belt_stiffness_spectrum")
+                 "belt_greens", "belt_contact", "belt_stiffness_spectrum", "belt_rolling_greens", "belt_rolling_run")
 #: Rules that request what another rule of the same work does (the study's comparison constructions, the belt
 #: study; a belt greens job also fits the belt's model: the greens stage's request covers it, measured 1.x)
 _SAME_AS = {"construction_greens": "greens", "construction_contact": "contact", "belt_greens": "greens",
-            "belt_contact": "contact", "belt_stiffness_spectrum": "stiffness_spectrum"}
+            "belt_contact": "contact", "belt_stiffness_spectrum": "stiffness_spectrum",
+            "belt_rolling_greens": "rolling_greens", "belt_rolling_run": "rolling_run"}
 
 _BASE_MB = 280.0          # MB, a stage's process: interpreter, numpy/scipy/numba/xarray, small arrays
 _SNAKEMAKE_MB = 400.0     # MB, the job's two Snakemake processes (batch step, job step)

@@ -697,8 +697,14 @@ def run_rolling(
     solver_cfg: Mapping[str, Any],
     out_nc: str | Path,
     threads: int = 1,
+    material_cfg: Mapping[str, Any] | None = None,
 ) -> None:
     """Stage ``rolling_run``: one pass of the rolling tyre over the strip (SPEC 12).
+
+    On a greens file built with the flexible belt (rule belt_rolling_run), the pass also records every step's
+    element forces and adds the belt's normal velocity just ahead of and behind the contact and the 1/3-octave
+    spectra (:func:`add_belt_vibration`; needs ``material_cfg``). Every pass records its wall time and the
+    process's peak memory (attrs ``wall_seconds``, ``peak_rss_mb``).
 
     Raises
     ------
@@ -710,17 +716,137 @@ def run_rolling(
     from .contact import SolverSettings
     from .rolling import RollingSettings, rolling_dataset, solve_rolling_run
 
+    import resource
+    import time
+
+    from .belt_stage import belt_of_greens
+
+    t0 = time.perf_counter()
     settings = RollingSettings.from_config(rolling_cfg)
     solver = SolverSettings.from_config(solver_cfg)
     surface, springs, greens = _solver_inputs(surface_nc, springs_nc, greens_nc)
-    result, info = solve_rolling_run(surface, springs, greens, mode, float(speed), settings, solver, threads)
+    belt = belt_of_greens(greens)
+    if belt is not None and material_cfg is None:
+        raise ValueError(f"{greens_nc}: a pass on the flexible belt needs the material (material_cfg) for the belt's "
+                         "vibration")
+    result, info = solve_rolling_run(surface, springs, greens, mode, float(speed), settings, solver, threads,
+                                     record_forces=belt is not None)
     ds = rolling_dataset(result, info, mode, float(speed), settings, surface, surface_name, material_name)
+    if belt is not None:
+        ds = add_belt_vibration(ds, result, info, surface, _material(material_name, material_cfg), belt[0], settings)
+    ds.attrs["wall_seconds"] = time.perf_counter() - t0
+    ds.attrs["peak_rss_mb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
     # what the pass ran on (the rolling report compares spring laws and kernels by these)
     ds.attrs["spring_rheology"] = str(springs.attrs.get("spring_rheology", "elastic"))
     ds.attrs["kernel_construction"] = str(greens.attrs.get("construction", "unknown"))
     provenance = {"rolling": dict(rolling_cfg), "solver": dict(solver_cfg)}
     io.write_dataset(ds, out_nc, provenance, stage="rolling_run", surface=surface_name, material=material_name,
                      mode=mode)
+
+
+#: How far ahead of the contact's leading edge and behind its trailing edge the belt's velocity is taken [m].
+BELT_OBSERVATION_GAP = 0.01
+
+
+def add_belt_vibration(ds: xr.Dataset, result, info: Mapping[str, float], surface: xr.Dataset, material, belt,
+                       settings) -> xr.Dataset:
+    """The belt's normal velocity just ahead of and behind the contact of a rolling pass on the flexible belt.
+
+    The points move with the contact on the strip's centre line, ``BELT_OBSERVATION_GAP`` ahead of the contact's
+    leading edge and behind its trailing edge (the edges: the median over the steady part of the extreme x - x_c of
+    the elements in contact). The velocity is the belt material's, from every step's element forces
+    (:func:`tyreroad.belt_vibration.belt_velocity_at_points`); its 1/3-octave levels over the steady part, and the
+    contact force's, are added.
+
+    Returns
+    -------
+    xarray.Dataset
+        ``ds`` with coords belt_point (ahead, behind), band; belt_velocity[belt_point, step] [m/s],
+        belt_observation_offset[belt_point] [m], belt_velocity_level[belt_point, band] [dB re 5e-8 m/s],
+        contact_force_level[band] [dB re 1 N].
+    """
+    from .belt_vibration import VELOCITY_REFERENCE, belt_velocity_at_points, belt_vibration_spectra, force_spectrum
+    from .rolling.analysis import steady_mask
+
+    forces = result.element_force
+    ex, ey = surface["element_x"].values, surface["element_y"].values
+    fs = 1.0 / float(result.time[1] - result.time[0])
+    steady = steady_mask(result.x_c, info, settings.steady_margin, settings.steady_entry)
+    in_contact = forces > 0.0
+    rel = ex[None, :] - result.x_c[:, None]
+    touched = in_contact.any(axis=2)
+    front = np.where(touched, rel, -np.inf).max(axis=1)
+    rear = np.where(touched, rel, np.inf).min(axis=1)
+    use = steady & np.isfinite(front)
+    if not use.any():
+        raise ValueError("rolling: no steady step with contact; the belt's vibration needs a steady part")
+    offsets = np.array([np.median(front[use]) + BELT_OBSERVATION_GAP, np.median(rear[use]) - BELT_OBSERVATION_GAP])
+    y_centre = 0.5 * (ey[0] + ey[-1])
+    run = {}
+    velocity = belt_velocity_at_points(forces, ex, ey, fs, result.x_c[None, :] + offsets[:, None],
+                                       np.full(2, y_centre), material, belt, float(info["element_size"]), info=run)
+    band_limits = tuple(settings.band_limits)
+    centres, v_levels = belt_vibration_spectra(velocity, fs, steady, band_limits)
+    _, f_levels = force_spectrum(result.force, fs, steady, band_limits)
+    out = ds.assign_coords(
+        belt_point=("belt_point", ["ahead", "behind"], {"long_name": "where the belt's velocity is taken"}),
+        band=("band", centres, {"units": "Hz", "long_name": "1/3-octave band centre frequency"}))
+    out["belt_velocity"] = (("belt_point", "step"), velocity, {
+        "units": "m/s", "long_name": "normal velocity of the belt (material frame, positive into the tyre) at points "
+        "moving with the contact, on the strip's centre line"})
+    out["belt_observation_offset"] = ("belt_point", offsets, {
+        "units": "m", "long_name": "x of the observation point from the contact centre x_c"})
+    out["belt_velocity_level"] = (("belt_point", "band"), v_levels, {
+        "units": "dB", "long_name": f"1/3-octave level of the belt velocity over the steady part, re {VELOCITY_REFERENCE:g} "
+        "m/s"})
+    out["contact_force_level"] = ("band", f_levels, {
+        "units": "dB", "long_name": "1/3-octave level of the total contact force's fluctuation over the steady part, "
+        "re 1 N"})
+    out.attrs.update({"belt": 1, **{f"belt_vibration_{k}": v for k, v in run.items() if np.isscalar(v)}})
+    return out
+
+
+def run_belt_rolling_spectra(belt_ncs: Sequence[str | Path], rigid_ncs: Sequence[str | Path], out_nc: str | Path,
+                             out_png: str | Path) -> None:
+    """``results/belt/rolling_spectra.nc`` and its figure: per speed, the pass on the flexible belt beside the pass on
+    the rigid belt (same strip, material, load): 1/3-octave levels of the contact force (both), of the belt's
+    velocity ahead of and behind the contact, the steady and rolling-loss forces, and each pass's cost (wall time,
+    peak memory)."""
+    from .belt_vibration import force_spectrum
+    from .plots.belt import plot_belt_rolling_spectra
+
+    rows = []
+    for b_path, r_path in zip(belt_ncs, rigid_ncs):
+        belt, rigid = io.read_dataset(b_path), io.read_dataset(r_path)
+        if float(belt.attrs["speed"]) != float(rigid.attrs["speed"]):
+            raise ValueError(f"{b_path} and {r_path}: passes at different speeds")
+        fs = 1.0 / float(rigid["time"].values[1] - rigid["time"].values[0])
+        centres, rigid_levels = force_spectrum(rigid["force"].values, fs, rigid["steady"].values.astype(bool),
+                                               (float(belt["band"].values[0]) / 1.01, float(belt["band"].values[-1]) * 1.01))
+        if centres.size != belt.sizes["band"]:
+            raise ValueError(f"{r_path}: its bands do not match the belt pass's")
+        scalars = {}
+        for tag, ds in (("belt", belt), ("rigid", rigid)):
+            for key, units in (("steady_force", "N"), ("rolling_loss_force", "N"), ("d0", "m")):
+                scalars[f"{key}_{tag}"] = ((), float(ds[key]), {"units": units, "long_name": f"{ds[key].attrs.get('long_name', key)} ({tag} belt)"})
+            for key, units in (("wall_seconds", "s"), ("peak_rss_mb", "MB")):
+                scalars[f"{key}_{tag}"] = ((), float(ds.attrs.get(key, np.nan)), {"units": units, "long_name": f"{key} of the {tag}-belt pass job"})
+            scalars[f"steps_{tag}"] = ((), int(ds.sizes["step"]), {"units": "1", "long_name": f"steps of the {tag}-belt pass"})
+        rows.append(xr.Dataset({
+            "contact_force_level_belt": ("band", belt["contact_force_level"].values, {"units": "dB", "long_name": "contact force level, flexible belt, re 1 N"}),
+            "contact_force_level_rigid": ("band", rigid_levels, {"units": "dB", "long_name": "contact force level, rigid belt, re 1 N"}),
+            "belt_velocity_level": (("belt_point", "band"), belt["belt_velocity_level"].values, dict(belt["belt_velocity_level"].attrs)),
+            "belt_observation_offset": ("belt_point", belt["belt_observation_offset"].values, dict(belt["belt_observation_offset"].attrs)),
+            **scalars,
+        }, coords={"band": belt["band"].values, "belt_point": belt["belt_point"].values,
+                   "speed": float(belt.attrs["speed"])}))
+    ds = xr.concat(rows, dim="speed")
+    ds["speed"].attrs.update(units="m/s", long_name="rolling speed")
+    ds["band"].attrs.update(units="Hz", long_name="1/3-octave band centre frequency")
+    ds.attrs["material"] = str(io.read_dataset(belt_ncs[0]).attrs.get("material", ""))
+    io.write_dataset(ds, out_nc, {"belt_runs": [str(p) for p in belt_ncs], "rigid_runs": [str(p) for p in rigid_ncs]},
+                     stage="belt_rolling_spectra")
+    plot_belt_rolling_spectra(ds, out_png)
 
 
 def run_rolling_study(rolling_ncs: Sequence[str | Path], rolling_cfg: Mapping[str, Any], out_nc: str | Path) -> None:

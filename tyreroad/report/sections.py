@@ -723,9 +723,14 @@ def belt_section(ctx: ReportContext) -> list[str]:
     materials = [str(m) for m in ctx.claims.settings.materials]
     any_greens = next(iter(belt_greens.values()), None)
     reference = "?" if any_greens is None else str(any_greens.attrs.get("belt_reference", "?"))
+    from dataclasses import fields
+
+    from ..belt import BeltProperties
+
     props = "" if any_greens is None else ", ".join(
-        f"{k[5:]} {float(any_greens.attrs[k]):.4g}" for k in sorted(any_greens.attrs)
-        if k.startswith("belt_") and k not in ("belt_reference", "belt_reference_patch"))
+        f"{f.name} {v}" if isinstance(v, str) else f"{f.name} {float(v):.4g}" for f in fields(BeltProperties)
+        for v in (any_greens.attrs.get(f"belt_{f.name}"),)
+        if f"belt_{f.name}" in any_greens.attrs)
     lines = [
         "## The flexible belt: the seed's first limitation",
         "",

@@ -31,9 +31,9 @@ __all__ = ["static_indentation", "solve_rolling", "solve_rolling_run"]
 
 
 def _march(loading: RollingPass, springs: SpringTable, kernel: LayerKernel, settings: SolverSettings,
-           threads: int, snapshot_steps=()) -> RollingResult:
+           threads: int, snapshot_steps=(), record_forces: bool = False) -> RollingResult:
     return run_loading_path(loading, springs, kernel, settings, threads,
-                            recorder=RollingRecorder(loading, snapshot_steps))
+                            recorder=RollingRecorder(loading, snapshot_steps, record_forces=record_forces))
 
 
 def static_indentation(z1, element_x, springs: SpringTable, relaxed: LayerKernel, radius: float, load: float,
@@ -82,6 +82,7 @@ def solve_rolling(
     solver: SolverSettings,
     threads: int = 1,
     d0: float | None = None,
+    record_forces: bool = False,
 ) -> tuple[RollingResult, dict[str, float]]:
     """One rolling pass over the strip (SPEC 12), dynamic or quasi-static.
 
@@ -108,6 +109,9 @@ def solve_rolling(
         numba threads and FFT workers.
     d0 : float, optional
         The indentation, if already known (overrides the settings' load / d0).
+    record_forces : bool
+        Keep every step's element forces (``RollingResult.element_force``; e.g. for the belt's vibration,
+        :mod:`tyreroad.belt_vibration`).
 
     With ``settings.load`` (and no d0) the pass is at the wheel load: d0 starts from the quasi-static
     indentation that carries the load with the contact centred on the strip, and is corrected pass
@@ -136,18 +140,19 @@ def solve_rolling(
     if d0 is None:
         d0 = settings.d0
     if d0 is not None:
-        result, info = _one_pass(z1, ex, c, springs, kernel, float(d0), speed, settings, solver, threads)
+        result, info = _one_pass(z1, ex, c, springs, kernel, float(d0), speed, settings, solver, threads,
+                                 record_forces)
         return result, {**info, "static_d0": float("nan"), "load_passes": 0, "load_error": float("nan")}
     centre = 0.5 * (ex[0] + ex[-1])
     static_d0 = static_indentation(z1, ex, springs, relaxed, settings.radius, settings.load, centre, solver, threads)
-    return _pass_at_load(z1, ex, c, springs, kernel, static_d0, speed, settings, solver, threads)
+    return _pass_at_load(z1, ex, c, springs, kernel, static_d0, speed, settings, solver, threads, record_forces)
 
 
 #: Passes allowed to bring the steady mean force to the wheel load.
 MAX_LOAD_PASSES = 8
 
 
-def _pass_at_load(z1, ex, c, springs, kernel, static_d0, speed, settings, solver, threads):
+def _pass_at_load(z1, ex, c, springs, kernel, static_d0, speed, settings, solver, threads, record_forces=False):
     """Passes at d0 from the static indentation on, until the steady mean force is the load (secant on d0).
 
     The first correction scales d0 by (load / F)^(2/3) (a Hertzian contact's F ~ d^1.5); later ones
@@ -156,7 +161,7 @@ def _pass_at_load(z1, ex, c, springs, kernel, static_d0, speed, settings, solver
     load, d = float(settings.load), static_d0
     tried: list[tuple[float, float]] = []
     while True:
-        result, info = _one_pass(z1, ex, c, springs, kernel, d, speed, settings, solver, threads)
+        result, info = _one_pass(z1, ex, c, springs, kernel, d, speed, settings, solver, threads, record_forces)
         steady = steady_mask(result.x_c, info, settings.steady_margin, settings.steady_entry)
         if not steady.any():
             raise ValueError(f"rolling: the pass at d0 = {d:.4g} m has no steady part, so its mean force cannot be "
@@ -177,7 +182,7 @@ def _pass_at_load(z1, ex, c, springs, kernel, static_d0, speed, settings, solver
         d = d2 + (load - f2) / slope if slope > 0 else d2 * (load / f2) ** (2.0 / 3.0)
 
 
-def _one_pass(z1, ex, c, springs, kernel, d0, speed, settings, solver, threads):
+def _one_pass(z1, ex, c, springs, kernel, d0, speed, settings, solver, threads, record_forces=False):
     """One pass at the indentation d0 [m]: (result, info)."""
     mode = "quasistatic" if kernel.static else "dynamic"
     x_start, x_end = pass_limits(settings, d0, ex, c)
@@ -193,7 +198,7 @@ def _one_pass(z1, ex, c, springs, kernel, d0, speed, settings, solver, threads):
     snaps = [int(np.argmin(np.abs(x_c - t))) for t in targets]
     logger.info("%s rolling pass at %g m/s: d0 = %.4e m, x_c from %.4g to %.4g m, %d steps", mode, speed, d0,
                 x_start, x_end, loading.n_steps)
-    result = _march(loading, springs, kernel, solver, threads, snaps)
+    result = _march(loading, springs, kernel, solver, threads, snaps, record_forces)
     if result.force[-1] > 0:
         raise ValueError(f"rolling.pass: the contact has not left the strip at x_end = {x_end:.6g} m "
                          f"({result.contact_count[-1]} elements still in contact); lengthen the pass")
@@ -204,7 +209,7 @@ def _one_pass(z1, ex, c, springs, kernel, d0, speed, settings, solver, threads):
 
 def solve_rolling_run(surface: xr.Dataset, springs: xr.Dataset, greens: xr.Dataset, mode: str, speed: float,
                       settings: RollingSettings, solver: SolverSettings, threads: int = 1,
-                      d0: float | None = None) -> tuple[RollingResult, dict[str, float]]:
+                      d0: float | None = None, record_forces: bool = False) -> tuple[RollingResult, dict[str, float]]:
     """:func:`solve_rolling` from the stage datasets (surface strip, its springs, the greens file)."""
     if mode not in MODES:
         raise ValueError(f"mode: expected one of {MODES}, got {mode!r}")
@@ -215,7 +220,8 @@ def solve_rolling_run(surface: xr.Dataset, springs: xr.Dataset, greens: xr.Datas
     ex = surface["element_x"].values
     table = SpringTable.from_dataset(springs)
     spring_table = springs_for_run(springs, SpringTable.checked(table.stiffness, table.force, table.zeta_step, z1.size))
-    result, info = solve_rolling(z1, ex, spring_table, kernel, relaxed, speed, settings, solver, threads, d0)
+    result, info = solve_rolling(z1, ex, spring_table, kernel, relaxed, speed, settings, solver, threads, d0,
+                                 record_forces)
     if not kernel.static:
         steady = steady_mask(result.x_c, info, settings.steady_margin, settings.steady_entry)
         record = stability_record(kernel, z1.shape, result.max_spring_stiffness, result.force, threads, steady)

@@ -103,3 +103,4 @@ rule belt_mobility:
     threads: 1
     script:
         "../scripts/belt_mobility.py"
+

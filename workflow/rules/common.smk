@@ -59,6 +59,8 @@ localrules:
     construction_study,
     belt_study,
     belt_mobility,
+    belt_rolling_spectra,
+    belt_rolling,
     claim6,
     report,
     loading_study,

@@ -21,4 +21,5 @@ pipeline.run_rolling(
     solver_cfg=snakemake.params.solver,
     out_nc=snakemake.output.nc,
     threads=snakemake.threads,
+    material_cfg=getattr(snakemake.params, "material", None),  # rule belt_rolling_run: the belt's vibration
 )
