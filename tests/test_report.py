@@ -594,7 +594,7 @@ def test_report_sets_the_belt_study_beside_the_rigid_belt(passing_study):
     text = build_report(passing_study, None, None, SETTINGS, VARIANTS, belt=(belt_study, greens, []))
     part = text[text.index("## The flexible belt"):]
     part = part[:part.index("\n## ")] if "\n## " in part else part
-    assert "belt's mean position under the patch" in part and "Belt: mass 9, loss_factor 0.1 (SI units)" in part
+    assert "the belt's mean position under it" in part and "Belt: mass 9, loss_factor 0.1 (SI units)" in part
     assert "| ref | 62 | 2.60e-03 | 1.2e+05 | 0.60% / 0.0058 |" in part
     k_ref = float(passing_study["saturated_stiffness"].values[list(passing_study["case"].values).index("ref/dynamic/500")])
     k_belt = float(belt_study["saturated_stiffness"].values[list(belt_study["case"].values).index("ref/dynamic/500")])

@@ -213,8 +213,12 @@ def _mode_terms(kx, ky, c, width, t, bw, tau2, k_base, z_lin, z_quad, out):  # p
             out[i, j] = sx * sy * ta / (z + kb)
 
 
-def _ring_grid(ax, ay, c, omega, e, poisson, density, thickness, belt, interpolate=True):
+def _ring_grid(ax, ay, c, omega, e, poisson, density, thickness, belt, interpolate=True, cell=None):
     """Delta g on the separable offset grid ax x ay [m] at one frequency: (len(ax), len(ay)) complex [m/N].
+
+    ``cell`` = (L_x, L_y) [m]: instead of the ring and strip, the patch as one cell of a footprint loaded
+    periodically with it (period L_x, L_y), without the uniform (k = 0) mode -- the belt's response to the
+    pressure's variation at the patch scale (:func:`belt_correction_table`).
 
     The mode sum of :func:`tyreroad.belt.belt_element_frf_correction_ring` (same modes, same truncation
     k_max = max(25 / h, 1.5 k_s + 20 / h), same two-port), with the cosine projections done as two matrix
@@ -227,10 +231,19 @@ def _ring_grid(ax, ay, c, omega, e, poisson, density, thickness, belt, interpola
     h = thickness
     k_s = float((omega * np.sqrt(density / (e / (2.0 * (1.0 + poisson))))).real)
     k_max = max(25.0 / h, 1.5 * k_s + 20.0 / h)
-    n = np.arange(0, int(k_max * belt.circumference / (2.0 * math.pi)) + 1, dtype=float)
-    m = np.arange(1, int(k_max * belt.width / math.pi) + 1, 2, dtype=float)
-    kx = 2.0 * math.pi * n / belt.circumference
-    ky = m * math.pi / belt.width
+    if cell is None:
+        n = np.arange(0, int(k_max * belt.circumference / (2.0 * math.pi)) + 1, dtype=float)
+        m = np.arange(1, int(k_max * belt.width / math.pi) + 1, 2, dtype=float)
+        kx = 2.0 * math.pi * n / belt.circumference
+        ky = m * math.pi / belt.width
+        weight = np.where(n == 0, 1.0, 2.0)[:, None] * (2.0 / (belt.circumference * belt.width))
+    else:
+        lx, ly = cell
+        n = np.arange(0, int(k_max * lx / (2.0 * math.pi)) + 1, dtype=float)
+        q = np.arange(0, int(k_max * ly / (2.0 * math.pi)) + 1, dtype=float)
+        kx, ky = 2.0 * math.pi * n / lx, 2.0 * math.pi * q / ly
+        weight = np.where(n == 0, 1.0, 2.0)[:, None] * np.where(q == 0, 1.0, 2.0)[None, :] / (lx * ly)
+        weight[0, 0] = 0.0  # the uniform mode: the tyre's global deflection under the footprint's mean pressure
     if interpolate:
         width = _PANEL_WIDTH / h
         n_panels = max(1, int(math.ceil(math.hypot(kx[-1], ky[-1]) / width)))
@@ -249,7 +262,6 @@ def _ring_grid(ax, ay, c, omega, e, poisson, density, thickness, belt, interpola
         port = layer_two_port(np.hypot(kxg, kyg), omega, e, poisson, density, thickness)
         f = (_sinc(0.5 * c * kxg) * _sinc(0.5 * c * kyg) * port["tau"] ** 2
              / (belt_impedance(kxg, kyg, omega, belt) + port["k_base"]))
-    weight = np.where(n == 0, 1.0, 2.0)[:, None] * (2.0 / (belt.circumference * belt.width))
     return np.cos(np.outer(ax, kx)) @ (weight * f) @ np.cos(np.outer(ky, ay))
 
 
@@ -277,10 +289,10 @@ def _check_belt(belt) -> None:
         raise ValueError(f"belt: expected a tyreroad.belt.BeltProperties, got {type(belt).__name__}")
 
 
-def _correction(material, belt, shape, c, omega, modulus, label="belt correction", interpolate=True):
+def _correction(material, belt, shape, c, omega, modulus, label="belt correction", interpolate=True, cell=None):
     """Delta g on belt_offsets(shape) at angular frequencies omega with moduli ``modulus``: (n_f, nx ny)."""
     nx, ny = shape
-    if (ny - 1) * c >= 0.5 * belt.width:
+    if cell is None and (ny - 1) * c >= 0.5 * belt.width:
         raise ValueError(f"shape: lateral offsets up to {(ny - 1) * c:g} m do not stay inside the belt "
                          f"(|y| < W / 2 = {0.5 * belt.width:g} m)")
     ax, ay = np.arange(nx) * c, np.arange(ny) * c
@@ -288,7 +300,7 @@ def _correction(material, belt, shape, c, omega, modulus, label="belt correction
     start = last = time.perf_counter()
     for i, (w, e) in enumerate(zip(omega, modulus)):
         out[i] = _ring_grid(ax, ay, c, float(w), complex(e), material.poisson, material.density,
-                            material.thickness, belt, interpolate).ravel()
+                            material.thickness, belt, interpolate, cell).ravel()
         now = time.perf_counter()
         if now - last > 10.0:
             logger.info("%s: %d / %d frequencies (%.0f s)", label, i + 1, omega.size, now - start)
@@ -296,8 +308,14 @@ def _correction(material, belt, shape, c, omega, modulus, label="belt correction
     return out
 
 
-def belt_correction_table(material, belt: BeltProperties, shape, element_size: float, frequencies) -> np.ndarray:
+def belt_correction_table(material, belt: BeltProperties, shape, element_size: float, frequencies,
+                          cell=None) -> np.ndarray:
     """The belt's part Delta g of the element Green's function on a patch's distinct offsets [m/N].
+
+    With ``cell`` = (L_x, L_y) [m] the patch is one cell of a footprint loaded periodically with it: Delta g is
+    the belt's response to the pressure's variation at the patch scale, (1 / (L_x L_y)) sum over k = 2 pi (p / L_x,
+    q / L_y), (p, q) != (0, 0), of P tau^2 / (Z + K_b) cos(k_x d_x) cos(k_y d_y) (the plate taken as wide and long:
+    the footprint's mean pressure, k = 0, is the tyre's global deflection, left to the tyre model).
 
     Delta g from :func:`tyreroad.belt.belt_element_frf_correction_ring` (the ring-and-strip mode sum; the
     same modes, truncation and two-port, with the cosine projections factored over the patch's product grid
@@ -331,7 +349,7 @@ def belt_correction_table(material, belt: BeltProperties, shape, element_size: f
     c = checks.real("element_size", element_size, positive=True)
     f = np.atleast_1d(checks.nonnegative_array("frequencies", frequencies)).astype(float)
     omega = 2.0 * np.pi * f
-    return _correction(material, belt, shape, c, omega, _material_modulus(material, omega))
+    return _correction(material, belt, shape, c, omega, _material_modulus(material, omega), cell=cell)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -545,7 +563,8 @@ def _fit_on(x, data, weight, n_pairs_list, fixed, sample_rate, compress_tol, n_i
 def fit_belt_kernel(material, belt: BeltProperties, shape, element_size: float, sample_rate: float, n_lags: int,
                     tolerance: float = 1e-4, pole_pairs=(8, 12, 16, 20, 24, 28, 32, 40), f_min: float = 1e-4,
                     f_low: float = 1.0, grid_ratio: float = 1.04, low_per_decade: float = 6.0,
-                    creep_per_decade: float = 2.0, n_iter: int = 20, compress_tolerance: float = 1e-5) -> "BeltKernel":
+                    creep_per_decade: float = 2.0, n_iter: int = 20, compress_tolerance: float = 1e-5,
+                    cell=None) -> "BeltKernel":
     r"""Fit the belt's part of the kernel as a discrete pole-residue model (see the module docstring).
 
     G_b(z) = D(d) + sum_j rho_j(d) / (1 - z_j z^-1) is fitted to Delta g(d, omega) at z = exp(i omega / fs) on
@@ -587,6 +606,9 @@ def fit_belt_kernel(material, belt: BeltProperties, shape, element_size: float, 
         Vector-fitting iterations per pole count.
     compress_tolerance : float
         Singular values of the weighted data dropped before pole identification [1 of |g_00|].
+    cell : (float, float), optional
+        (L_x, L_y) [m]: fit the belt's response to the patch repeated periodically over a footprint, without its
+        uniform mode (:func:`belt_correction_table`); None: the loaded patch alone on the ring and strip.
 
     Returns
     -------
@@ -617,7 +639,7 @@ def fit_belt_kernel(material, belt: BeltProperties, shape, element_size: float, 
     def data_at(f):
         omega = 2.0 * np.pi * f
         e = _material_modulus(material, omega)
-        dg = _correction(material, belt, shape, c, omega, e, f"belt correction {name}")
+        dg = _correction(material, belt, shape, c, omega, e, f"belt correction {name}", cell=cell)
         g00 = element_frf(np.zeros((1, 2)), c, omega, e, material.poisson, material.density, material.thickness)[:, 0]
         return dg, 1.0 / np.abs(g00 + dg[:, 0])
 
@@ -687,7 +709,8 @@ def fit_belt_kernel(material, belt: BeltProperties, shape, element_size: float, 
     phase = float(np.max(np.abs(np.angle((g00_b + model_b) / (g00_b + exact_b)))))
     # static (quasi-static modulus) correction
     e_qs = checks.real(f"{name}: quasi_static_modulus", material.quasi_static_modulus, positive=True)
-    static = _correction(material, belt, shape, c, np.zeros(1), np.array([e_qs + 0j]), interpolate=False)[0]
+    static = _correction(material, belt, shape, c, np.zeros(1), np.array([e_qs + 0j]), interpolate=False,
+                         cell=cell)[0]
     _, _, index = belt_table_index(shape)
     kernel = BeltKernel(
         poles=poles.copy(),

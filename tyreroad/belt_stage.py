@@ -13,15 +13,25 @@ The indentation's reference (config ``belt.reference``)
 The study prescribes the indentation d(t): the approach of the road to "the tyre". With a rigid belt that is
 the belt. A flexible belt deflects under the contact force, mostly as a whole over a 20 mm patch (its static
 deflection spreads over sqrt(T_x / s) ~ 0.16 m): for the default belt Delta g at 19 mm diagonal offset is still
-70 % of its value at the loaded element. Two references:
+70 % of its value at the loaded element. Three references:
 
-* ``patch_mean`` (default): d is the approach of the road to the belt's mean position under the patch. The
+* ``footprint`` (default): the patch is what the paper takes it for, a sample of a tyre footprint (~150 x 200 mm)
+  in which every 20 mm cell carries a similar load. The belt then sees the patch's force pattern repeated over
+  the footprint: its response splits into the footprint's mean pressure -- the tyre's global deflection, which a
+  tyre model computes itself and which is not contact compliance -- and the pressure's variation at the patch
+  scale, which stays: Delta g is the mode sum over the cell's wavenumbers k = 2 pi (p / L_x, q / L_y) without
+  k = 0 (:func:`tyreroad.belt_kernel.belt_correction_table` with ``cell``). The plate is taken as wide and long
+  there (L_x = 20 mm is far below the ring and strip). This is the local contact stiffness on a flexible belt.
+* ``patch_mean``: the patch alone on the belt, d measured from the belt's mean position under it. The
   belt-borne displacement a uniform unit load over the patch gives on average,
   c(omega) = sum_d Delta g(d, omega) (nx - |dx|)(ny - |dy|) / (nx ny)^2, is subtracted from every offset:
   u_e - c sum_e' F_e' is the tread surface measured from that mean. What remains is the belt's deformation
   across the patch and its dynamics (waves, modes, the belt's inertia behind the tread): the local contact
   stiffness that a tyre model, which resolves the belt's own large-scale motion, needs. The kernel stays
-  translation invariant and symmetric; c is exactly representable in the rational model (the same poles).
+  translation invariant and symmetric; c is exactly representable in the rational model (the same poles). But an
+  isolated loaded patch bends the belt into a bowl (its centre sinks more than its edges), and peripheral
+  contacts then count as stiffer than the mean: an artefact of loading only the patch (measured on the default
+  study: K_sat +11 to +53 %, where ``footprint`` gives a fraction of a percent, see the report).
 * ``rim``: d is the approach of the road to the rim (the belt's elastic bed is anchored there): the tyre's
   structural compliance is in series with the contact, K(d) is then mostly the tyre's radial stiffness (a few
   1e5 N/m) and the study's d_max is not reached by the contact itself. Available, not run by default.
@@ -48,7 +58,7 @@ __all__ = ["BELT_REFERENCES", "belt_from_config", "belt_settings", "patch_mean_w
            "belt_of_greens", "response_of", "add_belt"]
 
 #: Where the indentation is measured from (module docstring).
-BELT_REFERENCES = ("patch_mean", "rim")
+BELT_REFERENCES = ("footprint", "patch_mean", "rim")
 
 
 def belt_from_config(properties: Mapping[str, Any] | None, key: str = "belt.properties") -> BeltProperties:
@@ -81,7 +91,7 @@ def belt_settings(section: Mapping[str, Any] | None) -> tuple[BeltProperties, st
     """
     if section is None:
         return None
-    reference = section.get("reference", "patch_mean")
+    reference = section.get("reference", "footprint")
     if reference not in BELT_REFERENCES:
         raise ValueError(f"belt.reference = {reference!r}: expected one of {list(BELT_REFERENCES)}")
     return belt_from_config(section.get("properties")), str(reference)
@@ -97,7 +107,8 @@ def patch_mean_weights(shape) -> np.ndarray:
 
 
 class BeltElementFRF:
-    """The exact element FRF of tread + flexible belt, g(dx, dy, f) = element_frf + Delta g (- c) [m/N].
+    """The exact element FRF of tread + flexible belt, g(dx, dy, f) = element_frf + Delta g (- c) [m/N] (for
+    ``footprint``, Delta g of the patch repeated over the footprint without its uniform mode, c = 0).
 
     Delta g: :func:`tyreroad.belt_kernel.belt_correction_table` (the ring-and-strip mode sum of
     :func:`tyreroad.belt.belt_element_frf_correction_ring` in its fast form; the loaded patch on the belt's centre
@@ -116,7 +127,7 @@ class BeltElementFRF:
         The patch the mean is taken over (the greens file's patch); needed for ``patch_mean``.
     """
 
-    def __init__(self, material, belt: BeltProperties, element_size: float, reference: str = "patch_mean",
+    def __init__(self, material, belt: BeltProperties, element_size: float, reference: str = "footprint",
                  reference_shape=None):
         from .greens import ElementFRF
 
@@ -124,8 +135,8 @@ class BeltElementFRF:
             raise ValueError(f"belt: expected a BeltProperties, got {type(belt).__name__}")
         if reference not in BELT_REFERENCES:
             raise ValueError(f"reference: expected one of {list(BELT_REFERENCES)}, got {reference!r}")
-        if reference == "patch_mean" and reference_shape is None:
-            raise ValueError("reference_shape: the patch of the 'patch_mean' reference is needed")
+        if reference != "rim" and reference_shape is None:
+            raise ValueError(f"reference_shape: the patch of the {reference!r} reference is needed")
         self.material = material
         self.belt = belt
         self.element_size = checks.real("element_size", element_size, positive=True)
@@ -140,8 +151,11 @@ class BeltElementFRF:
         mat, c = self.material, self.element_size
         ref = self.reference_shape if self.reference == "patch_mean" else None
         big = shape if ref is None else (max(shape[0], ref[0]), max(shape[1], ref[1]))
+        cell = None
+        if self.reference == "footprint":
+            cell = (self.reference_shape[0] * c, self.reference_shape[1] * c)
         t0 = time.perf_counter()
-        values = belt_correction_table(mat, self.belt, big, c, f)  # the ring-and-strip mode sum, fast form
+        values = belt_correction_table(mat, self.belt, big, c, f, cell=cell)  # the mode sum, fast form
         tables = values[:, belt_table_index(big)[2]]
         logger.debug("belt part of the element FRF: %d frequencies, %d offsets, %.1f s", f.size, values.shape[1],
                      time.perf_counter() - t0)
@@ -190,7 +204,8 @@ def add_belt(ds, material, belt: BeltProperties, reference: str, shape):
     """The rigid-belt greens dataset ``ds`` with the flexible belt's part added (module docstring).
 
     Fits the belt's rational discrete model (:func:`tyreroad.belt_kernel.fit_belt_kernel`) on ``shape`` at the
-    file's sample rate, subtracts the patch mean (``reference = 'patch_mean'``), adds its first L lags to ``g``
+    file's sample rate (``footprint``: the patch as one cell of the footprint), subtracts the patch mean
+    (``patch_mean``), adds its first L lags to ``g``
     and its static value (quasi-static modulus) to ``g_static``, and stores its poles and residues (the memory
     beyond L) with the belt's properties in the attributes.
 
@@ -208,7 +223,8 @@ def add_belt(ds, material, belt: BeltProperties, reference: str, shape):
     n_lags = int(ds.sizes["lag"])
     c = float(ds.attrs["element_size"])
     t0 = time.perf_counter()
-    model = fit_belt_kernel(material, belt, shape, c, fs, n_lags)
+    cell = (shape[0] * c, shape[1] * c) if reference == "footprint" else None
+    model = fit_belt_kernel(material, belt, shape, c, fs, n_lags, cell=cell)
     if reference == "patch_mean":
         model = model.referenced(patch_mean_weights(shape))
     logger.info("greens %s: belt %s (reference %s), %.1f s", material.name, model.describe(), reference,

@@ -34,7 +34,8 @@ CLUSTER_RULES = ("prepare_surface", "element_springs", "greens", "contact", "loa
                  "rolling_greens", "rolling_run", "sensitivity_point", "construction_greens", "construction_contact",
                  "belt_greens", "belt_contact", "belt_stiffness_spectrum", "belt_rolling_greens", "belt_rolling_run")
 #: Rules that request what another rule of the same work does (the study's comparison constructions, the belt
-#: study; a belt greens job also fits the belt's model: the greens stage's request covers it, measured 1.x)
+#: study and rolling; a belt greens job also fits the belt's model, 10-25 s on the default patch, within the greens
+#: stage's runtime request)
 _SAME_AS = {"construction_greens": "greens", "construction_contact": "contact", "belt_greens": "greens",
             "belt_contact": "contact", "belt_stiffness_spectrum": "stiffness_spectrum",
             "belt_rolling_greens": "rolling_greens", "belt_rolling_run": "rolling_run"}

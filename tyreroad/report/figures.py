@@ -45,6 +45,11 @@ FIGURE_CAPTIONS: dict[str, str] = {
                           "force) against speed, per material.",
     "fig14_contact_map": "Fig. 14 — Element forces at one instant of a quasi-static and a dynamic rolling pass, "
                          "with x_c and the geometric contact half-length marked.",
+    "belt_mobility": "Point and transfer mobility of the tread surface on the flexible belt, beside the tread on a "
+                     "rigid belt, the bare belt and the infinite plate, with the published statements on measured "
+                     "car-tyre mobilities as frequency bands.",
+    "belt_rolling_spectra": "Rolling on the flexible belt beside the rigid belt: 1/3-octave levels of the total "
+                            "contact force, and of the belt's normal velocity just ahead of and behind the contact.",
     "sensitivity": "Sensitivity sweep: what decides claims 5–7 at each sweep point (loss factor, K_sat change of "
                    "the loss variants, density ripple, K change over the saturation range).",
 }

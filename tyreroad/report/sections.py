@@ -709,6 +709,22 @@ def construction_section(ctx: ReportContext) -> list[str]:
     return lines + [""]
 
 
+#: What the belt section says of each ``belt.reference`` (tyreroad.belt_stage).
+_BELT_REFERENCE_TEXT = {
+    "footprint": "`belt.reference: footprint` (`tyreroad.belt_stage`): the patch is taken for what the paper takes "
+                 "it, a sample of a tyre footprint whose 20 mm cells carry similar loads, so the belt sees the patch's "
+                 "forces repeated over the footprint. The belt's response to the footprint's mean pressure is the "
+                 "tyre's global deflection, which a tyre model computes itself and which is not contact compliance; "
+                 "its response to the pressure's variation at the patch scale (and its dynamics there) stays in the "
+                 "kernel.",
+    "patch_mean": "`belt.reference: patch_mean` (`tyreroad.belt_stage`): the patch alone on the belt, the indentation "
+                  "measured from the belt's mean position under it. An isolated loaded patch bends the belt into a "
+                  "bowl, and contacts at the patch's edges then count as stiffer than its mean: read the change as an "
+                  "upper bound of the belt's local effect, not as the tyre's.",
+    "rim": "`belt.reference: rim` (`tyreroad.belt_stage`): the indentation is measured from the rim, so the tyre's "
+           "structural compliance is in series with the contact.",
+}
+
 #: Frequencies [Hz] at which the belt section compares K* (the stiffness spectrum's default report frequencies).
 _BELT_SPECTRUM_FREQUENCIES = (100.0, 1000.0, 5000.0)
 
@@ -740,12 +756,7 @@ def belt_section(ctx: ReportContext) -> list[str]:
         "elastic bed, coupled exactly through the tread layer as a two-port; ring-and-strip mode sum; its memory "
         "as recursive filters, `tyreroad.belt_kernel`). Belt: " + props + " (SI units).",
         "",
-        f"The indentation is measured from the belt's mean position under the patch (`belt.reference: {reference}`"
-        "; `tyreroad.belt_stage`): the belt's own large-scale deflection, which a tyre model resolves itself, is not "
-        "counted as contact compliance; what stays is the belt's deformation across the patch and its dynamics."
-        if reference == "patch_mean" else
-        f"The indentation is measured from the rim (`belt.reference: {reference}`): the tyre's structural "
-        "compliance is in series with the contact.",
+        _BELT_REFERENCE_TEXT.get(reference, f"`belt.reference: {reference}`."),
         "",
         "| material | belt poles | fit error [relative to the magnitude of G_0] | k_crit [N/m] | fidelity (magnitude / phase [rad]) |",
         "|---|---|---|---|---|",
