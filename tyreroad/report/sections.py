@@ -774,7 +774,7 @@ def belt_section(ctx: ReportContext) -> list[str]:
     lines += ["", "| case | K_sat, rigid belt [MN/m] | K_sat, flexible belt [MN/m] | change |", "|---|---|---|---|"]
     labels = study["case"].values.astype(str)
     other_labels = belt_study["case"].values.astype(str)
-    changes = []
+    changes, n_past = [], 0
     for i, label in enumerate(labels):
         j = np.flatnonzero(other_labels == label)
         k_own = float(study["saturated_stiffness"].values[i])
@@ -783,10 +783,18 @@ def belt_section(ctx: ReportContext) -> list[str]:
             continue
         k_belt = float(belt_study["saturated_stiffness"].values[j[0]])
         changes.append(k_belt / k_own - 1.0)
-        lines.append(f"| {label} | {k_own * _MN:.4f} | {k_belt * _MN:.4f} | {_pct(k_belt / k_own - 1.0)} |")
+        past = ""
+        if "fs2_limit_indentation" in belt_study and np.isfinite(belt_study["fs2_limit_indentation"].values[j[0]]):
+            past = f" (past k_crit from {belt_study['fs2_limit_indentation'].values[j[0]] * _MM:.3f} mm)"
+            n_past += 1
+        lines.append(f"| {label} | {k_own * _MN:.4f} | {k_belt * _MN:.4f}{past} | {_pct(k_belt / k_own - 1.0)} |")
     if changes:
         lines += ["", f"Over the {len(changes)} cases the belt changes K_sat by {_pct(min(changes))} to "
                   f"{_pct(max(changes))} (median {_pct(float(np.median(changes)))})."]
+    if n_past:
+        lines += ["", f"{n_past} belt run(s) reached springs stiffer than their belt kernel's k_crit (marked): they ran "
+                  "with `solver.stability: warn`, their fs/2 alternation is recorded in results/belt/contact/ "
+                  "(`fs2_alternation`); read those K_sat with it."]
     lines += ["", "| # | claim | rigid belt | flexible belt |", "|---|---|---|---|"]
     by_number = {r.number: r for r in belt_results}
     for n in sorted(ctx.results):
