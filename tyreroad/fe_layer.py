@@ -1,6 +1,80 @@
 """Frequency-domain finite-element model of the flat tread layer (issue 27, first step).
 
-Draft: formulation and measured numbers are filled in below once measured.
+The first step towards FE Green's functions of a grooved tread cell: the same FE cell without grooves, checked
+against today's analytic element kernel (:func:`tyreroad.greens.static_element_kernel`,
+:func:`tyreroad.greens.element_frf`) on the same 1 mm surface elements.
+
+Formulation
+-----------
+The layer 0 <= z <= h (z into the tread, surface z = 0, rigid belt at z = h) is an isotropic visco-elastic
+solid with a complex Young's modulus E(omega) (exp(+i omega t), Im E >= 0) and a frequency-independent
+Poisson's ratio, so that the stiffness scales with the modulus: K(omega) = E(omega) K_1 with K_1 the stiffness
+for E = 1 Pa. K_1 and the consistent mass M are assembled once; each frequency solves
+
+    (E(omega) K_1 - omega^2 M) u = f,
+
+the static case (omega = 0) with the material's quasi-static modulus. The load f is a uniform normal pressure
+1 / c^2 [Pa per N] on the loaded element [-c/2, c/2]^2, pushing into the layer (+z); the output is u_z at the
+centres of the surface elements (i c, j c) (point values from skfem's ``probes``), i.e. exactly greens'
+convention (displacement at the field element's centre, not its average; force spread uniformly over the
+loaded element), so g_FE = u_z [m/N] per unit force.
+
+Element: displacement-based Galerkin with 27-node triquadratic (``hex2``, skfem ElementHex2) or 20-node
+serendipity (``hexs2``) hexahedra, 3 x 3 x 3 Gauss points (exact for the stiffness and mass integrands on the
+axis-aligned boxes used; skfem's default order for Hex2 is 7 points per direction and cost 580 s instead of 31 s
+for 1296 elements). At nu = 0.49 (lambda / mu = 49) trilinear hexahedra lock: ``hex1`` on a 0.25 mm mesh is
+14 % too stiff at the excitation element (6-14 % at the neighbours), against 1.4 % at nu = 0.3 on the same mesh;
+the quadratic elements are within 0.4 % (``hexs2``) and 0.16 % (``hex2``) on a 0.5 mm mesh, so no mixed or
+selective formulation was needed at this Poisson's ratio.
+
+Assembly with scikit-fem (``asm`` of scalar forms): the vector operator is combined from the nine scalar
+derivative matrices S_pq = int d_p phi_j d_q phi_i (:func:`elasticity_matrices`); this equals skfem's vector
+``linear_elasticity`` form to round-off (tests) and is about 15x faster (2 s instead of 31 s for 1296 Hex2
+elements), because skfem's vector form evaluates the tensor algebra for every one of the (3 x 27)^2 basis pairs.
+
+Boundary conditions and cell
+----------------------------
+The quarter cell [0, L/2] x [0, L/2] x [0, h] with the load's centre at the corner: u = 0 at z = h; on all four
+lateral faces the symmetry (roller) condition, zero normal displacement and zero tangential traction
+(u_x = 0 at x = 0 and x = L/2, u_y = 0 at y = 0 and y = L/2); top traction-free except the loaded quarter
+element (1/4 N on the quarter, which gives the full cell's displacement). The mirror planes at x = 0 and
+x = L/2 make this exactly the laterally infinite layer under a periodic array of the load with period L in x and
+y: the periodic cell, with the load's quarter symmetry used (1/4 of the unknowns). :func:`periodic_images` sums
+the analytic kernel over these images, which separates the discretisation error (FE against the image sum) from
+the cell-size error (image sum against the single load). Image effects of the analytic kernel, relative to g at
+the offset, for the tread preset (h = 10 mm, nu = 0.49; |.| in %):
+
+    period   static (0,0) (1,0) (2,0) (3,0)     5 kHz (0,0) (1,0) (1,1) (2,0) (3,0)
+    40 mm           0.10  0.39  1.00  2.0             0.44  1.56  2.32  3.54  6.1
+    60 mm           0.016 0.06  0.16  0.32            0.19  0.68  1.00  1.53  2.7
+    80 mm           0.003 0.01  0.03  0.06            0.10  0.36  0.53  0.81  1.4
+
+The static kernel of a bonded layer decays exponentially (its compliance is analytic at k = 0), so the static
+images are negligible beyond a few h; at 1 kHz the images are as small as static ones, but above the first
+thickness resonance (about 4 kHz) the layer carries guided waves, damped only by the material loss (eta 0.29 at
+5 kHz): the images fall slowly with the period. No absorbing layer was built; the default period is 80 mm
+(``half_width`` 40 mm), which the graded mesh makes cheap (the outer 20 mm add about 4 coarse elements per
+lateral direction), and the 5 kHz neighbours carry the image error of the table above.
+
+Mesh: tensor-product, graded (:func:`axis_nodes`): spacing ``fine`` (a divisor of c/2, so that the loaded
+element's edges are mesh planes) up to ``fine_extent`` from the load's centre (laterally) and below the surface,
+then growing by ``growth`` up to ``coarse``. At 5 kHz the shear wavelength is about 34 mm, resolved by 4 mm
+quadratic elements.
+
+Solver: SuperLU (scipy ``splu``) of the complex symmetric matrix in a geometric nested-dissection order of the
+nodes (:func:`nested_dissection`, each node's three DOFs together), with diagonal pivots (``diag_pivot_thresh``
+0, ``SymmetricMode``): SuperLU's own COLAMD gave 150 M factor entries and 56 s (MMD on A^T + A: 360 M, 570 s) for
+a 34 k-DOF static Hex2 matrix that nested dissection factors with 38 M entries in 5 s. One factorisation per
+frequency.
+
+Measured accuracy and cost (benchmarks/fe_layer_convergence.py; tread preset, period 80 mm, Hex2;
+|g_FE / g - 1| in % against the infinite layer's kernel; one core, shared machine)
+
+BENCHMARK_TABLE
+
+The test mesh (tests/test_fe_layer.py: ``hexs2``, period 60 mm, 0.5 mm growing by 1.6 to 5 mm, 18.9 k DOFs,
+assembly 2.6 s, static solve 7 s, complex 8-11 s): static -0.38 % (0,0), +0.81 % (1,0), -0.79 % (1,1), -0.24 %
+(2,0); 5 kHz 0.41 / 1.06 / 1.14 / 1.56 % (0.38 / 0.74 / 0.62 / 0.14 % against the image sum).
 """
 
 from __future__ import annotations
@@ -74,6 +148,9 @@ class CellMesh:
         Largest spacing [m].
     element : str
         ``"hex2"`` (27-node triquadratic), ``"hexs2"`` (20-node serendipity) or ``"hex1"`` (trilinear).
+    volumetric : str
+        ``"full"`` or ``"reduced"``: Gauss order of the lambda div u div v term (selective reduced integration,
+        one point per direction fewer).
     """
 
     half_width: float = 40e-3
@@ -82,6 +159,7 @@ class CellMesh:
     growth: float = 1.5
     coarse: float = 4e-3
     element: str = "hex2"
+    volumetric: str = "full"
 
 
 _ELEMENTS = ("hex2", "hexs2", "hex1")
@@ -118,11 +196,11 @@ def derivative_matrices(basis) -> list[list[sps.csr_matrix]]:
             out[p][q] = asm(form, basis).tocsr()
     for p in range(3):
         for q in range(p):
-            out[p][q] = out[q][p].T.tocsr()  # int d_p phi_j d_q phi_i = (int d_q phi_i' ... )^T
+            out[p][q] = out[q][p].T.tocsr()  # S[p][q][i, j] = S[q][p][j, i]
     return out
 
 
-def elasticity_matrices(basis, poisson: float, density: float):
+def elasticity_matrices(basis, poisson: float, density: float, volumetric_basis=None):
     """Stiffness for E = 1 Pa and mass of the isotropic solid on a scalar basis, component-major DOFs.
 
     With v = psi e_a (test) and u = phi e_b (trial), the bilinear form int 2 mu eps(u):eps(v) + lambda div u div v
@@ -139,6 +217,9 @@ def elasticity_matrices(basis, poisson: float, density: float):
         Poisson's ratio [-].
     density : float
         Density [kg/m^3].
+    volumetric_basis : skfem.Basis, optional
+        The same scalar element with a lower Gauss order for the lambda div u div v term (selective reduced
+        integration); default ``basis`` (full integration).
 
     Returns
     -------
@@ -152,11 +233,12 @@ def elasticity_matrices(basis, poisson: float, density: float):
 
     lam, mu = lame_parameters(1.0, float(poisson))
     S = derivative_matrices(basis)
+    V = S if volumetric_basis is None else derivative_matrices(volumetric_basis)
     lap = S[0][0] + S[1][1] + S[2][2]
     blocks = [[None] * 3 for _ in range(3)]
     for a in range(3):
         for b in range(3):
-            blk = mu * S[a][b] + lam * S[b][a]
+            blk = mu * S[a][b] + lam * V[b][a]
             if a == b:
                 blk = blk + mu * lap
             blocks[a][b] = blk
@@ -260,7 +342,12 @@ class LayerCell:
         self.mesh = m = MeshHex.init_tensor(xy, xy, z)
         self.basis = sb = Basis(m, _scalar_element(mesh.element), intorder=_INTORDER[mesh.element])
         ns = sb.N
-        self.K_ref, self.M = elasticity_matrices(sb, self.poisson, self.density)
+        if mesh.volumetric not in ("full", "reduced"):
+            raise ValueError(f"mesh.volumetric must be 'full' or 'reduced', got {mesh.volumetric!r}")
+        vb = None
+        if mesh.volumetric == "reduced":
+            vb = Basis(m, sb.elem, intorder=_INTORDER[mesh.element] - 2)
+        self.K_ref, self.M = elasticity_matrices(sb, self.poisson, self.density, vb)
         tol = 1e-9 * c
         loaded = m.facets_satisfying(lambda x: (np.abs(x[2]) < tol) & (x[0] < c / 2 + tol) & (x[1] < c / 2 + tol))
         fb = FacetBasis(m, sb.elem, facets=loaded, intorder=_INTORDER[mesh.element])
@@ -326,6 +413,35 @@ class LayerCell:
         self.factor_nnz = lu.L.nnz + lu.U.nnz
         u = lu.solve(self._f.astype(a.dtype))
         return self._P @ u
+
+    def response(self, material, frequencies) -> np.ndarray:
+        """Element FRF of the cell, static included, for a :class:`tyreroad.material.Material`.
+
+        Parameters
+        ----------
+        material : tyreroad.material.Material
+            Provides ``modulus(omega)`` [Pa] and ``quasi_static_modulus`` [Pa] (used at f = 0); its Poisson's
+            ratio, density and thickness must be the cell's.
+        frequencies : array_like
+            Frequencies f >= 0 [Hz].
+
+        Returns
+        -------
+        numpy.ndarray
+            Complex g, shape (len(frequencies), len(offsets)) [m/N]: the normal displacement at the centre of
+            the surface element at :attr:`offsets` per unit normal force on the loaded element.
+        """
+        for key, mine in (("poisson", self.poisson), ("density", self.density), ("thickness", self.thickness)):
+            if not math.isclose(float(getattr(material, key)), mine, rel_tol=1e-12):
+                raise ValueError(f"material {key} {getattr(material, key)} differs from the cell's {mine}")
+        f = np.atleast_1d(np.asarray(frequencies, dtype=float))
+        if np.any(f < 0):
+            raise ValueError("frequencies must be >= 0")
+        out = np.empty((f.size, len(self.offsets)), dtype=complex)
+        for n, fn in enumerate(f):
+            w = 2 * np.pi * fn
+            out[n] = self.solve(material.quasi_static_modulus if fn == 0 else complex(np.ravel(material.modulus(w))[0]), w)
+        return out
 
 
 def periodic_images(kernel, offsets, period: float, n_images: int = 8) -> np.ndarray:
