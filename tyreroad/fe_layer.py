@@ -70,7 +70,33 @@ frequency.
 Measured accuracy and cost (benchmarks/fe_layer_convergence.py; tread preset, period 80 mm, Hex2;
 |g_FE / g - 1| in % against the infinite layer's kernel; one core, shared machine)
 
-BENCHMARK_TABLE
+Hex2, full integration, three meshes refined towards the load (fine spacing 0.5 / 0.25 / 0.125 mm over 4 fine
+elements, growth 1.5, 4 mm far field):
+
+    mesh (fine)     free DOFs  assembly  LU entries  peak RSS  factor+solve static / complex
+    A (0.5 mm)         63 630     5.0 s      96 M      4.5 GB    18 s / 48-62 s
+    B (0.25 mm)        87 098     5.3 s     153 M      6.8 GB    32 s / 92-101 s
+    C (0.125 mm)      126 854     5.5 s     256 M     11.2 GB   112 s / 124-204 s
+
+    |g_FE / g - 1| [%] against the infinite layer (in brackets: against the image sum, i.e. discretisation only,
+    where they differ by more than 0.05)
+    f        mesh   (0,0)         (1,0)         (1,1)         (2,0)
+    static   A      0.16          0.85          1.23          0.20
+             B      0.49          0.46          0.40          0.39
+             C      0.06          0.25          0.33          0.17
+    100 Hz, 1 kHz:  the static numbers within 0.01
+    5 kHz    A      0.12 (0.18)   1.05 (0.73)   0.70 (1.05)   0.92 (0.12)
+             B      0.40 (0.48)   0.71 (0.38)   0.33 (0.36)   1.05 (0.27)
+             C      0.07 (0.06)   0.54 (0.21)   0.35 (0.30)   0.91 (0.11)
+
+Signs (static): A -0.16 / +0.87 / -1.22 / +0.23, B -0.49 / +0.47 / -0.38 / +0.42 (the base mesh's small
+excitation-element error is a cancellation; the neighbours converge monotonically). At 5 kHz the remaining
+neighbour error is the 80 mm period's images (0.4-0.8 %), not the mesh. The FE error at nu = 0.49 converges
+more slowly than at nu = 0.3 (Hex S2 at 0.25 mm: 0.1 % at nu = 0.3, 0.6 % at 0.49): the quadratic elements'
+mild volumetric locking. Selective reduced integration of the lambda term (``volumetric="reduced"``) removes most
+of it on fine meshes (Hex S2, 0.25 mm, 20 mm half-width: -0.21 / +0.23 / -0.06 % instead of -0.59 / +0.74 /
+-0.33 %) but is worse when the loaded quarter element is a single element (0.5 mm: -5.8 / +7.4 %), so it is
+not the default.
 
 The test mesh (tests/test_fe_layer.py: ``hexs2``, period 60 mm, 0.5 mm growing by 1.6 to 5 mm, 18.9 k DOFs,
 assembly 2.6 s, static solve 7 s, complex 8-11 s): static -0.38 % (0,0), +0.81 % (1,0), -0.79 % (1,1), -0.24 %
