@@ -3,7 +3,8 @@
 For each mesh (base A and two refinements towards the load, B and C: fine spacing 0.5, 0.25, 0.125 mm) the
 quarter cell of the tread preset's layer (h = 10 mm, nu = 0.49, 80 x 80 mm period) is solved statically
 (quasi-static modulus) and at 100 Hz, 1 kHz and 5 kHz. Printed per mesh and frequency: the relative error
-g_FE / g - 1 [%] (static: signed; FRF: its modulus) at the excitation element (0,0) and the neighbours (1,0), (1,1), (2,0), where g is
+g_FE / g - 1 [%] (static: signed; FRF: its modulus) at the excitation element (0,0) and the neighbours (1,0),
+(1,1), (2,0), where g is
 
 * ``inf``: today's analytic kernel of the laterally infinite layer (greens.static_element_kernel /
   greens.element_frf): the issue's acceptance numbers (discretisation + cell-size error), and
@@ -94,7 +95,8 @@ def main():
     ap.add_argument("--quick", action="store_true", help="base mesh only")
     args = ap.parse_args()
     meshes = dict(list(MESHES.items())[:1]) if args.quick else MESHES
-    print(f"FE layer cell vs analytic kernel: element {args.element} ({args.volumetric} volumetric integration), period {2e3 * args.half_width:.0f} mm, "
+    print(f"FE layer cell vs analytic kernel: element {args.element} ({args.volumetric} volumetric integration), "
+          f"period {2e3 * args.half_width:.0f} mm, "
           f"h = 10 mm, nu = 0.49, c = 1 mm; errors g_FE/g - 1 in % (static, signed) and |g_FE/g - 1| in % (FRF)")
     ref = None
     for name, spec in meshes.items():

@@ -118,3 +118,16 @@ def test_sign_and_factor(solved, tread):
     assert g0 > 0 and 0.99 < np.real(g[0.0][i0]) / g0 < 1.01
     for f in FREQS[1:]:
         assert np.real(g[f][i0]) > 0 and np.imag(g[f][i0]) < 0
+
+
+def test_response_uses_quasi_static_modulus_at_zero_and_checks_the_material(tread):
+    mesh = fe_layer.CellMesh(half_width=6e-3, fine=0.5e-3, fine_extent=1e-3, growth=2.0, coarse=3e-3, element="hexs2")
+    cell = fe_layer.LayerCell(tread.thickness, tread.poisson, tread.density, C, mesh, n_field=1)
+    w = 2 * np.pi * 2000.0
+    g = cell.response(tread, [0.0, 2000.0])
+    assert g.shape == (2, len(cell.offsets))
+    np.testing.assert_allclose(g[0], cell.solve(tread.quasi_static_modulus), rtol=1e-12)
+    np.testing.assert_allclose(g[1], cell.solve(complex(np.ravel(tread.modulus(w))[0]), w), rtol=1e-12)
+    other = fe_layer.LayerCell(tread.thickness, 0.45, tread.density, C, mesh, n_field=1)
+    with pytest.raises(ValueError, match="poisson"):
+        other.response(tread, [0.0])

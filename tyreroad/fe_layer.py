@@ -466,7 +466,8 @@ class LayerCell:
         out = np.empty((f.size, len(self.offsets)), dtype=complex)
         for n, fn in enumerate(f):
             w = 2 * np.pi * fn
-            out[n] = self.solve(material.quasi_static_modulus if fn == 0 else complex(np.ravel(material.modulus(w))[0]), w)
+            e = material.quasi_static_modulus if fn == 0 else complex(np.ravel(material.modulus(w))[0])
+            out[n] = self.solve(e, w)
         return out
 
 
