@@ -118,6 +118,12 @@ Hex S2 with selective reduced integration (``volumetric="reduced"``), same three
 
 (1,0) in mesh C: with the fine patch shrunk to 0.5 mm, x = 1 mm lies in 0.3-0.4 mm graded elements, coarser than
 mesh B's 0.25 mm there; the refinement sequence refines the load's neighbourhood, not the first neighbour's.
+With the fine patch kept at 1.5 mm on all meshes (``--fine-extent 0.0015``), Hex S2 reduced:
+
+    mesh (fine)    DOFs  LU entries  RSS     static solve  static (0,0) (1,0) (1,1) (2,0)  5 kHz vs image sum
+    A' (0.5 mm)   25 328     35 M    1.9 GB     6 s        -5.73 +7.06 -2.15 -1.19       5.5 6.2 1.8 0.9
+    B' (0.25 mm)  63 934    129 M    6.0 GB    30 s        -0.21 +0.20 -0.08 +0.09       0.20 0.18 0.05 0.09
+    C' (0.125 mm): killed by the OOM killer at 24 GB RSS (SuperLU, one core): beyond this machine.
 
 The test mesh (tests/test_fe_layer.py: ``hexs2``, period 60 mm, 0.5 mm growing by 1.6 to 5 mm, 18.9 k DOFs,
 assembly 2.6 s, static solve 7 s, complex 8-11 s): static -0.38 % (0,0), +0.81 % (1,0), -0.79 % (1,1), -0.24 %
