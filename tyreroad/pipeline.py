@@ -765,6 +765,8 @@ def add_belt_vibration(ds: xr.Dataset, result, info: Mapping[str, float], surfac
         belt_observation_offset[belt_point] [m], belt_velocity_level[belt_point, band] [dB re 5e-8 m/s],
         contact_force_level[band] [dB re 1 N].
     """
+    import numpy as np
+
     from .belt_vibration import VELOCITY_REFERENCE, belt_velocity_at_points, belt_vibration_spectra, force_spectrum
     from .rolling.analysis import steady_mask
 
@@ -789,7 +791,7 @@ def add_belt_vibration(ds: xr.Dataset, result, info: Mapping[str, float], surfac
     centres, v_levels = belt_vibration_spectra(velocity, fs, steady, band_limits)
     _, f_levels = force_spectrum(result.force, fs, steady, band_limits)
     out = ds.assign_coords(
-        belt_point=("belt_point", ["ahead", "behind"], {"long_name": "where the belt's velocity is taken"}),
+        belt_point=("belt_point", ["ahead", "behind"], {"units": "1", "long_name": "where the belt's velocity is taken"}),
         band=("band", centres, {"units": "Hz", "long_name": "1/3-octave band centre frequency"}))
     out["belt_velocity"] = (("belt_point", "step"), velocity, {
         "units": "m/s", "long_name": "normal velocity of the belt (material frame, positive into the tyre) at points "
@@ -812,6 +814,8 @@ def run_belt_rolling_spectra(belt_ncs: Sequence[str | Path], rigid_ncs: Sequence
     the rigid belt (same strip, material, load): 1/3-octave levels of the contact force (both), of the belt's
     velocity ahead of and behind the contact, the steady and rolling-loss forces, and each pass's cost (wall time,
     peak memory)."""
+    import numpy as np
+
     from .belt_vibration import force_spectrum
     from .plots.belt import plot_belt_rolling_spectra
 
@@ -842,6 +846,8 @@ def run_belt_rolling_spectra(belt_ncs: Sequence[str | Path], rigid_ncs: Sequence
                    "speed": float(belt.attrs["speed"])}))
     ds = xr.concat(rows, dim="speed")
     ds["speed"].attrs.update(units="m/s", long_name="rolling speed")
+    ds["belt_point"].attrs.update(units="1", long_name="where the belt's velocity is taken (ahead of / behind the "
+                                  "contact)")
     ds["band"].attrs.update(units="Hz", long_name="1/3-octave band centre frequency")
     ds.attrs["material"] = str(io.read_dataset(belt_ncs[0]).attrs.get("material", ""))
     io.write_dataset(ds, out_nc, {"belt_runs": [str(p) for p in belt_ncs], "rigid_runs": [str(p) for p in rigid_ncs]},
