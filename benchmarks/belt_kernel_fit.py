@@ -17,7 +17,8 @@ import xarray as xr
 import yaml
 
 from tyreroad.belt import DEFAULT_BELT
-from tyreroad.belt_kernel import BeltKernel, fit_belt_kernel
+from tyreroad.belt_fit import fit_belt_kernel
+from tyreroad.belt_kernel import BeltKernel
 from tyreroad.material import material_from_config
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -1,4 +1,4 @@
-"""Tests of tyreroad.belt_kernel: the belt's part of the march kernel as a discrete pole-residue memory.
+"""Tests of tyreroad.belt_kernel and tyreroad.belt_fit: the belt's part of the march kernel as a discrete pole-residue memory.
 
 References independent of the code under test: tyreroad.belt.belt_element_frf_correction_ring (the ring sum, per
 offset, with the two-port solved per mode), tyreroad.greens.element_frf, and a plain-numpy direct convolution with
@@ -16,17 +16,15 @@ import xarray as xr
 import yaml
 
 from tyreroad.belt import DEFAULT_BELT, belt_element_frf_correction_ring
+from tyreroad.belt_fit import _ring_grid, belt_correction_table, fit_belt_kernel
 from tyreroad.belt_kernel import (
     BeltHistory,
     BeltKernel,
     BeltMemory,
     _belt_update,
     _belt_update_numpy,
-    _ring_grid,
-    belt_correction_table,
     belt_offsets,
     belt_table_index,
-    fit_belt_kernel,
 )
 from tyreroad.greens import element_frf
 from tyreroad.history import HistorySum

@@ -177,19 +177,22 @@ def _checked(config, overlay):
 def test_config_validation(config):
     """greens.construction accepts radau (and lists the allowed values otherwise); hard contact on any other
     construction, or beside a compared single-stage construction, is refused at planning time naming radau."""
-    _checked(config, {"greens": {"construction": "radau"}})
+    no_belt = {"belt": {"study": False}}  # the belt study needs a kernel with a belt memory (refused below)
+    _checked(config, {"greens": {"construction": "radau"}, **no_belt})
     _checked(config, {"greens": {"construction": "radau"}, "springs": {"model": "hard"},
-                      "study": {"compare_constructions": []}})
+                      "study": {"compare_constructions": []}, **no_belt})
+    with pytest.raises(ConfigError, match=r"belt\.study: true with greens\.construction = 'radau'"):
+        _checked(config, {"greens": {"construction": "radau"}})
     for own in ("passive", "fold", "seed"):
         with pytest.raises(ConfigError, match=r"greens\.construction: radau") as info:
             _checked(config, {"greens": {"construction": own}, "springs": {"model": "hard"},
                               "study": {"compare_constructions": []}})
         assert "springs.model = 'hard'" in str(info.value)
     with pytest.raises(ConfigError, match=r"study\.compare_constructions = \['seed'\].*radau"):
-        _checked(config, {"greens": {"construction": "radau"}, "springs": {"model": "hard"}})
+        _checked(config, {"greens": {"construction": "radau"}, "springs": {"model": "hard"}, **no_belt})
     with pytest.raises(ConfigError, match="dense substrate only"):
         _checked(config, {"greens": {"construction": "radau"},
-                          "surfaces": {"iso10844": {"patch_elements": [50, 40]}}})
+                          "surfaces": {"iso10844": {"patch_elements": [50, 40]}}, **no_belt})
     with pytest.raises(ValueError, match=r"greens\.construction: expected one of \['seed', 'fold', 'passive', "
                                          r"'radau'\], got 'radu'"):
         from tyreroad.greens import GreensSettings

@@ -20,7 +20,7 @@ deflection spreads over sqrt(T_x / s) ~ 0.16 m): for the default belt Delta g at
   the footprint: its response splits into the footprint's mean pressure -- the tyre's global deflection, which a
   tyre model computes itself and which is not contact compliance -- and the pressure's variation at the patch
   scale, which stays: Delta g is the mode sum over the cell's wavenumbers k = 2 pi (p / L_x, q / L_y) without
-  k = 0 (:func:`tyreroad.belt_kernel.belt_correction_table` with ``cell``). The plate is taken as wide and long
+  k = 0 (:func:`tyreroad.belt_fit.belt_correction_table` with ``cell``). The plate is taken as wide and long
   there (L_x = 20 mm is far below the ring and strip). This is the local contact stiffness on a flexible belt.
 * ``patch_mean``: the patch alone on the belt, d measured from the belt's mean position under it. The
   belt-borne displacement a uniform unit load over the patch gives on average,
@@ -50,7 +50,8 @@ import numpy as np
 
 from . import checks
 from .belt import DEFAULT_BELT, BeltProperties
-from .belt_kernel import belt_correction_table, belt_table_index
+from .belt_fit import belt_correction_table
+from .belt_kernel import belt_table_index
 
 logger = logging.getLogger(__name__)
 
@@ -110,7 +111,7 @@ class BeltElementFRF:
     """The exact element FRF of tread + flexible belt, g(dx, dy, f) = element_frf + Delta g (- c) [m/N] (for
     ``footprint``, Delta g of the patch repeated over the footprint without its uniform mode, c = 0).
 
-    Delta g: :func:`tyreroad.belt_kernel.belt_correction_table` (the ring-and-strip mode sum of
+    Delta g: :func:`tyreroad.belt_fit.belt_correction_table` (the ring-and-strip mode sum of
     :func:`tyreroad.belt.belt_element_frf_correction_ring` in its fast form; the loaded patch on the belt's centre
     line); with ``reference = 'patch_mean'`` the patch mean c(f) over ``reference_shape`` is subtracted from
     every offset (module docstring). Used as a :class:`tyreroad.kernel.LayerKernel`'s ``response`` (K*(f)) and
@@ -203,7 +204,7 @@ def response_of(greens, material):
 def add_belt(ds, material, belt: BeltProperties, reference: str, shape):
     """The rigid-belt greens dataset ``ds`` with the flexible belt's part added (module docstring).
 
-    Fits the belt's rational discrete model (:func:`tyreroad.belt_kernel.fit_belt_kernel`) on ``shape`` at the
+    Fits the belt's rational discrete model (:func:`tyreroad.belt_fit.fit_belt_kernel`) on ``shape`` at the
     file's sample rate (``footprint``: the patch as one cell of the footprint), subtracts the patch mean
     (``patch_mean``), adds its first L lags to ``g``
     and its static value (quasi-static modulus) to ``g_static``, and stores its poles and residues (the memory
@@ -214,7 +215,7 @@ def add_belt(ds, material, belt: BeltProperties, reference: str, shape):
     (xarray.Dataset, BeltElementFRF)
         The dataset with the belt, and the exact FRF its kernel stands for (for the fidelity check).
     """
-    from .belt_kernel import fit_belt_kernel
+    from .belt_fit import fit_belt_kernel
 
     if reference not in BELT_REFERENCES:
         raise ValueError(f"belt.reference = {reference!r}: expected one of {list(BELT_REFERENCES)}")

@@ -192,8 +192,8 @@ def config_file_order(configfiles: Iterable[str | Path], overwrite_configfiles: 
 
 
 #: Top-level keys of the config (the schema's sections): an error paragraph that starts with one names a key.
-_SECTIONS = ("results_dir", "surfaces", "materials", "springs", "spring_comparison", "greens", "solver", "loadings",
-             "study", "stiffness_spectrum", "sensitivity", "rolling")
+_SECTIONS = ("results_dir", "surfaces", "materials", "springs", "spring_comparison", "belt", "greens", "solver",
+             "loadings", "study", "stiffness_spectrum", "sensitivity", "rolling")
 
 #: The key path an error paragraph starts with (``greens.n_fft``, ``study.accelerations[1]``, ...).
 _LEADING_KEY = re.compile(r"^([A-Za-z_][A-Za-z0-9_.\-]*(?:\[\d+\][A-Za-z0-9_.\-]*)*)(?= = |: |\b)")

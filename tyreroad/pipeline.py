@@ -808,6 +808,15 @@ def add_belt_vibration(ds: xr.Dataset, result, info: Mapping[str, float], surfac
     return out
 
 
+def run_belt_mobility(material_name: str, material_cfg: Mapping[str, Any], belt_cfg_or_None, out_nc: str | Path,
+                      out_png: str | Path) -> None:
+    """Stage ``belt_mobility``: the tread-surface point and transfer mobilities on the flexible belt, with the figure
+    (:func:`tyreroad.belt_mobility.run_belt_mobility`)."""
+    from .belt_mobility import run_belt_mobility as run
+
+    run(material_name, material_cfg, belt_cfg_or_None, out_nc, out_png)
+
+
 def run_belt_rolling_spectra(belt_ncs: Sequence[str | Path], rigid_ncs: Sequence[str | Path], out_nc: str | Path,
                              out_png: str | Path) -> None:
     """``results/belt/rolling_spectra.nc`` and its figure: per speed, the pass on the flexible belt beside the pass on

@@ -54,7 +54,17 @@ def static_indentation(z1, element_x, springs: SpringTable, relaxed: LayerKernel
     # a two-point (linear) table extends exactly beyond its grid: bound the search by 1 mm then; d0 also carries the
     # structure's deflection under the load (a flexible belt's: ~2.5 mm at 500 N), at most the largest static
     # compliance times the load
-    zeta_max = max(springs.zeta_step * (springs.stiffness.shape[-1] - 1), 1e-3)
+    n_table = springs.stiffness.shape[-1]
+    zeta_end = springs.zeta_step * (n_table - 1)
+    zeta_max = max(zeta_end, 1e-3)
+    table_force = np.asarray(getattr(springs, "force", np.zeros((1, 1))))
+    if table_force.ndim == 2 and zeta_end > 0:
+        # what every spring carries at zeta_max (a two-point table is linear and extends exactly)
+        capacity = float(table_force[:, -1].sum()) * (zeta_max / zeta_end if n_table == 2 else 1.0)
+        if load > capacity:
+            raise ValueError(f"rolling.load = {load:g} N: more than the springs carry at {zeta_max:g} m, the end of "
+                             f"their tables ({capacity:.4g} N); expected a load the strip can carry within the spring "
+                             "tables")
     zeta_max += load * max(float(np.asarray(relaxed.lags).max()), 0.0)
 
     def force(d0):

@@ -16,7 +16,7 @@ rule belt_greens:
         belt=BELT,
         n_elements=max_patch_elements(),
         element_size=study_element_size(),
-        code=SOURCE["belt_greens"],
+        code=SOURCE["greens"],
     threads: 1
     resources:
         mem_mb=lambda w, attempt: cluster_resources("belt_greens", config, w, attempt)["mem_mb"],

@@ -1,17 +1,6 @@
 # Rolling on the belt (named target `belt_rolling`): the reference material's dynamic passes on the first rolling
 # strip at belt.rolling_speeds, with the indentation from the rim (the wheel load is carried by tread + belt), the
 # belt's velocity just ahead of and behind the contact, and the rigid-belt pass beside it.
-BELT_ROLLING_SPEEDS = BELT.get("rolling_speeds", [20.0])
-
-
-def belt_rolling_runs():
-    if not ROLLING_SURFACES:
-        return []
-    strip = ROLLING_SURFACES[0]
-    return [(f"{R}/belt/rolling/{strip}/{ROLLING_REFERENCE}/dynamic_v{fmt_speed(v)}.nc",
-             f"{R}/rolling/{strip}/{ROLLING_REFERENCE}/dynamic_v{fmt_speed(v)}.nc") for v in BELT_ROLLING_SPEEDS]
-
-
 rule belt_rolling_greens:
     output:
         nc=f"{R}/belt/rolling/greens/{{material}}.nc",
@@ -25,7 +14,7 @@ rule belt_rolling_greens:
         belt=dict(BELT, reference="rim"),
         n_elements=rolling_greens_elements if ROLLING_SURFACES else [1, 1],
         element_size=study_element_size(),
-        code=SOURCE["belt_greens"],
+        code=SOURCE["greens"],
     threads: 1
     resources:
         mem_mb=lambda w, attempt: cluster_resources("belt_rolling_greens", config, w, attempt)["mem_mb"],

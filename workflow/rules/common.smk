@@ -345,5 +345,19 @@ def belt_outputs():
             f"{R}/belt/mobility.nc", f"{R}/figures/belt_mobility.png"]
 
 
+# Rolling on the belt (named target belt_rolling; rules in belt_rolling.smk): the reference material's dynamic passes
+# on the first rolling strip at belt.rolling_speeds, on the belt and on the rigid belt.
+BELT_ROLLING_SPEEDS = BELT.get("rolling_speeds", [20.0])
+
+
+def belt_rolling_runs():
+    if not ROLLING_SURFACES:
+        return []
+    strip = ROLLING_SURFACES[0]
+    return [(f"{R}/belt/rolling/{strip}/{ROLLING_REFERENCE}/dynamic_v{fmt_speed(v)}.nc",
+             f"{R}/rolling/{strip}/{ROLLING_REFERENCE}/dynamic_v{fmt_speed(v)}.nc") for v in BELT_ROLLING_SPEEDS]
+
+
+
 def construction_greens():
     return [f"{R}/constructions/{c}/greens/{m}.nc" for c in COMPARE_CONSTRUCTIONS for m in STUDY["materials"]]

@@ -4,10 +4,10 @@ import os
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, str(snakemake.threads))  # noqa: F821 (snakemake is injected)
 
-from tyreroad import belt_mobility, log
+from tyreroad import log, pipeline
 
 log.configure(snakemake.log[0])
-belt_mobility.run_belt_mobility(
+pipeline.run_belt_mobility(
     material_name=snakemake.params.name,
     material_cfg=snakemake.params.material,
     belt_cfg_or_None=snakemake.params.belt,
