@@ -83,8 +83,9 @@ def test_profile_plans_the_study(tmp_path):
     # 5 materials x (3 + 1) runs, 5 materials x 2 cycle runs, 5 stiffness spectra + 20 other jobs; claim 6
     # (issue 24): 8 more materials x (greens, springs, one dynamic run) and the claim6 job; the seed's kernel
     # construction beside the default (issue 23): 5 greens, 15 dynamic runs and their study; every material's
-    # K* in one file (stiffness_combined)
-    assert totals and int(totals[0][1]) == 55 + 8 * 3 + 1 + 5 + 15 + 1 + 1, out[-3000:]
+    # K* in one file (stiffness_combined); the study on the flexible belt (issue 26): 5 greens, 20 runs, its study,
+    # the reference's K* and the mobility figure
+    assert totals and int(totals[0][1]) == 55 + 8 * 3 + 1 + 5 + 15 + 1 + 1 + 5 + 20 + 1 + 1 + 1, out[-3000:]
 
 
 def test_profile_requests_follow_the_rules_and_the_site(tmp_path):
@@ -99,7 +100,9 @@ def test_profile_requests_follow_the_rules_and_the_site(tmp_path):
     assert Counter(rule for rule, _ in cluster_jobs) == {
         "prepare_surface": 1, "element_springs": 5 + 8, "greens": 5 + 8, "contact": 20 + 8, "loading_run": 10,
         "stiffness_spectrum": 5, "construction_greens": 5, "construction_contact": 15,
-    }  # + 8: claim 6's anchor variants and control runs (issue 24), one dynamic run each; the seed's construction
+        "belt_greens": 5, "belt_contact": 20, "belt_stiffness_spectrum": 1,
+    }  # + 8: claim 6's anchor variants and control runs (issue 24), one dynamic run each; the seed's construction;
+    # the study on the flexible belt (issue 26): its 5 kernels, 20 runs and the reference's K*
     for rule, res in cluster_jobs:
         # every other resource of the profile survives the site settings
         assert res["slurm_account"] == "acct1" and res["slurm_partition"] == "part2", (rule, res)

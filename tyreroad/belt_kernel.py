@@ -87,12 +87,13 @@ from __future__ import annotations
 
 import logging
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 
 import numpy as np
 from numba import njit
 
 from . import checks
+from .belt import BeltProperties
 from .convolution import OffsetConvolution, check_offset_kernel
 from .history import _StepCounter
 from .influence import offset_matrix
@@ -100,6 +101,7 @@ from .influence import offset_matrix
 logger = logging.getLogger(__name__)
 
 __all__ = [
+    "belt_of_greens",
     "belt_offsets",
     "belt_table_index",
     "BeltKernel",
@@ -528,3 +530,13 @@ class BeltHistory:
         self._steps.check_record(n, "BeltHistory")
         self._advance(n)
         self._delay_line[n % self.delay] = f
+
+
+def belt_of_greens(greens) -> tuple[BeltProperties, str, tuple[int, int]] | None:
+    """(belt, reference, reference patch) recorded in a greens dataset, or None for a rigid-belt file."""
+    if not int(greens.attrs.get("belt", 0)):
+        return None
+    props = {f.name: (str(greens.attrs[f"belt_{f.name}"]) if f.type in (str, "str")
+                      else float(greens.attrs[f"belt_{f.name}"])) for f in fields(BeltProperties)}
+    shape = tuple(int(n) for n in np.atleast_1d(greens.attrs["belt_reference_patch"]))
+    return BeltProperties(**props), str(greens.attrs["belt_reference"]), shape

@@ -51,7 +51,7 @@ import numpy as np
 from . import checks
 from .belt import DEFAULT_BELT, BeltProperties
 from .belt_fit import belt_correction_table
-from .belt_kernel import belt_table_index
+from .belt_kernel import belt_of_greens, belt_table_index
 
 logger = logging.getLogger(__name__)
 
@@ -176,16 +176,6 @@ class BeltElementFRF:
         from .influence import offset_influences
 
         return offset_influences(self.frequency_response(frequencies, shape), frequencies, shape, workers)
-
-
-def belt_of_greens(greens) -> tuple[BeltProperties, str, tuple[int, int]] | None:
-    """(belt, reference, reference patch) recorded in a greens dataset, or None for a rigid-belt file."""
-    if not int(greens.attrs.get("belt", 0)):
-        return None
-    props = {f.name: (str(greens.attrs[f"belt_{f.name}"]) if f.type in (str, "str")
-                      else float(greens.attrs[f"belt_{f.name}"])) for f in fields(BeltProperties)}
-    shape = tuple(int(n) for n in np.atleast_1d(greens.attrs["belt_reference_patch"]))
-    return BeltProperties(**props), str(greens.attrs["belt_reference"]), shape
 
 
 def response_of(greens, material):

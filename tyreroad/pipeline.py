@@ -719,7 +719,7 @@ def run_rolling(
     import resource
     import time
 
-    from .belt_stage import belt_of_greens
+    from .belt_kernel import belt_of_greens
 
     t0 = time.perf_counter()
     settings = RollingSettings.from_config(rolling_cfg)

@@ -44,7 +44,7 @@ STAGE_MODULES: dict[str, tuple[str, ...]] = {
     "stiffness_figure": ("log", "pipeline", "plots.stiffness", "stiffness"),
     "stiffness_combined": ("log", "pipeline", "kstar"),
     "sensitivity": ("log", "sensitivity"),
-    "rolling": ("log", "pipeline", "contact", "rolling", "belt_vibration", "belt_stage", "material"),
+    "rolling": ("log", "pipeline", "contact", "rolling", "belt_vibration", "belt_kernel", "material"),
     "rolling_study": ("log", "pipeline", "rolling"),
     "rolling_figures": ("log", "pipeline", "plots.rolling"),
     "rolling_report": ("log", "pipeline", "report"),
