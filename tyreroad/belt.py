@@ -757,19 +757,45 @@ def belt_element_frf_correction(offsets, element_size, omega, modulus, poisson, 
     return out
 
 
+def ring_truncation(omega, modulus, poisson, density, thickness, extent=1.0) -> float:
+    """k_max [rad/m] of the ring-and-strip mode sums: extent x max(25 / h, 1.5 k_s + 20 / h), k_s the tread's shear
+    wavenumber, the largest over the given frequencies (tau decays like exp(-k h) beyond k_s, Z grows like k^4).
+
+    The one truncation rule of :func:`belt_element_frf_correction_ring`, :func:`tyreroad.belt_fit.belt_correction_table`
+    and :mod:`tyreroad.belt_vibration`.
+    """
+    mu = np.asarray(modulus) / (2.0 * (1.0 + poisson))
+    k_s = np.asarray(omega * np.sqrt(density / mu)).real
+    return float(extent * np.max(np.maximum(25.0 / thickness, 1.5 * k_s + 20.0 / thickness), initial=0.0))
+
+
+def ring_modes(belt: BeltProperties, k_max: float, k_max_y: float | None = None):
+    """The ring-and-strip modes of a load on the belt's centre line: kx_n = 2 pi n / L (0 <= n, |kx| <= k_max),
+    ky_m = m pi / W (odd m, ky <= k_max_y, default k_max; sin(m pi / 2)^2 = 1), and the weight (n = 0 ? 1 : 2) 2 / (L W)
+    of each n (the +-n pair summed as a cosine).
+
+    Returns
+    -------
+    kx, ky : numpy.ndarray
+        [rad/m].
+    weight : numpy.ndarray
+        (len(kx), 1) [1/m^2].
+    """
+    k_max_y = k_max if k_max_y is None else k_max_y
+    n = np.arange(0, int(k_max * belt.circumference / (2.0 * math.pi)) + 1, dtype=float)
+    m = np.arange(1, int(k_max_y * belt.width / math.pi) + 1, 2, dtype=float)
+    weight = np.where(n == 0, 1.0, 2.0)[:, None] * (2.0 / (belt.circumference * belt.width))
+    return 2.0 * math.pi * n / belt.circumference, m * math.pi / belt.width, weight
+
+
 def _ring_strip_sum(offsets, element_size, omega, belt, k_max, port, k_max_y=None):
     """Ring-and-strip mode sum of the element correction at one frequency; ``port(k)`` -> (tau, K_b) arrays.
 
     |kx| <= k_max, ky <= k_max_y (default k_max)."""
     c = element_size
-    k_max_y = k_max if k_max_y is None else k_max_y
-    n = np.arange(0, int(k_max * belt.circumference / (2.0 * math.pi)) + 1, dtype=float)
-    m = np.arange(1, int(k_max_y * belt.width / math.pi) + 1, 2, dtype=float)  # odd: sin(m pi / 2)^2 = 1
-    kx = 2.0 * math.pi * n / belt.circumference
-    ky = m * math.pi / belt.width
+    kx, ky, weight = ring_modes(belt, k_max, k_max_y)
     kxg, kyg = np.meshgrid(kx, ky, indexing="ij")
     tau, kb = port(np.hypot(kxg, kyg))
-    weight = np.where(n == 0, 1.0, 2.0)[:, None] * (2.0 / (belt.circumference * belt.width))
     f = weight * _sinc(0.5 * c * kxg) * _sinc(0.5 * c * kyg) * tau**2 / (belt_impedance(kxg, kyg, omega, belt) + kb)
     ax, ay = np.abs(offsets[:, 0]), np.abs(offsets[:, 1])
     # sum_n over +-n: cos(kx dx); odd m: sin(ky (W/2 + dy)) sin(ky W/2) = cos(ky dy)
@@ -832,8 +858,7 @@ def belt_element_frf_correction_ring(offsets, element_size, omega, modulus, pois
         raise ValueError("offsets: lateral offsets must stay inside the belt (|y| < W / 2)")
     out = np.empty((omega.size, len(offsets)), dtype=complex)
     for i, (w, e) in enumerate(zip(omega, e_all)):
-        k_s = float((w * np.sqrt(rho / (e / (2.0 * (1.0 + nu))))).real)
-        k_max = extent * max(25.0 / h, 1.5 * k_s + 20.0 / h)
+        k_max = ring_truncation(w, e, nu, rho, h, extent)
 
         def port(k, w=w, e=e):
             p = layer_two_port(k, w, e, nu, rho, h)

@@ -15,7 +15,7 @@ import numpy as np
 from numba import njit
 
 from . import checks
-from .belt import BeltProperties, _sinc, belt_impedance, layer_two_port
+from .belt import BeltProperties, _sinc, belt_impedance, layer_two_port, ring_modes, ring_truncation
 from .belt_kernel import BeltKernel, _check_shape, _closed, _pole_groups, belt_offsets, belt_table_index
 from .greens import element_frf
 
@@ -91,14 +91,9 @@ def _ring_grid(ax, ay, c, omega, e, poisson, density, thickness, belt, interpola
     of |Delta g_00| (tests/test_belt_kernel.py) with ~30 x fewer two-port solves.
     """
     h = thickness
-    k_s = float((omega * np.sqrt(density / (e / (2.0 * (1.0 + poisson))))).real)
-    k_max = max(25.0 / h, 1.5 * k_s + 20.0 / h)
+    k_max = ring_truncation(omega, e, poisson, density, h)
     if cell is None:
-        n = np.arange(0, int(k_max * belt.circumference / (2.0 * math.pi)) + 1, dtype=float)
-        m = np.arange(1, int(k_max * belt.width / math.pi) + 1, 2, dtype=float)
-        kx = 2.0 * math.pi * n / belt.circumference
-        ky = m * math.pi / belt.width
-        weight = np.where(n == 0, 1.0, 2.0)[:, None] * (2.0 / (belt.circumference * belt.width))
+        kx, ky, weight = ring_modes(belt, k_max)
     else:
         lx, ly = cell
         n = np.arange(0, int(k_max * lx / (2.0 * math.pi)) + 1, dtype=float)

@@ -111,7 +111,7 @@ import scipy.fft
 import scipy.sparse
 
 from . import checks
-from .belt import BeltProperties, _element_inputs, _sinc, _two_port_numpy
+from .belt import BeltProperties, _element_inputs, _sinc, _two_port_numpy, ring_modes, ring_truncation
 from .rolling.analysis import band_levels, third_octave_centres
 
 __all__ = [
@@ -130,17 +130,6 @@ VELOCITY_REFERENCE = 5e-8
 FORCE_REFERENCE = 1.0
 
 
-def _k_max(omega, modulus, poisson, density, thickness, extent):
-    """Mode-sum truncation [rad/m]: extent x max(25 / h, 1.5 k_s + 20 / h), k_s the tread's shear wavenumber.
-
-    The rule of :func:`tyreroad.belt.belt_element_frf_correction_ring`; for the belt displacement (tau, not tau^2)
-    it leaves < 2e-13 relative at 0-6 kHz (module docstring).
-    """
-    mu = np.asarray(modulus) / (2.0 * (1.0 + poisson))
-    k_s = np.asarray(omega * np.sqrt(density / mu)).real
-    return float(extent * np.max(np.maximum(25.0 / thickness, 1.5 * k_s + 20.0 / thickness), initial=0.0))
-
-
 class _Modes:
     """The ring-and-strip modes |kx_n| <= k_max (n >= 0), ky_m <= k_max (odd m) and their frequency-free parts.
 
@@ -151,16 +140,11 @@ class _Modes:
     """
 
     def __init__(self, belt: BeltProperties, element_size: float, k_max: float):
-        length, width = belt.circumference, belt.width
-        n = np.arange(0, int(k_max * length / (2.0 * math.pi)) + 1, dtype=float)
-        m = np.arange(1, int(k_max * width / math.pi) + 1, 2, dtype=float)
         self.belt = belt
         self.k_max = k_max
-        self.kx = 2.0 * math.pi * n / length
-        self.ky = m * math.pi / width
+        self.kx, self.ky, weight = ring_modes(belt, k_max)
         kxg, kyg = np.meshgrid(self.kx, self.ky, indexing="ij")
         self.k = np.hypot(kxg, kyg)
-        weight = np.where(n == 0, 1.0, 2.0)[:, None] * (2.0 / (length * width))
         self.base = weight * _sinc(0.5 * element_size * kxg) * _sinc(0.5 * element_size * kyg)
         kx2, ky2 = kxg * kxg, kyg * kyg
         self.elastic = (belt.bending_x * kx2 * kx2 + 2.0 * belt.bending_xy * kx2 * ky2 + belt.bending_y * ky2 * ky2
@@ -309,7 +293,7 @@ def belt_displacement_transfer(offsets, element_size, omega, modulus, poisson, d
                                                                    density, thickness, belt, extent)
     if np.any(np.abs(offsets[:, 1]) >= 0.5 * belt.width):
         raise ValueError("offsets: lateral offsets must stay inside the belt (|y| < W / 2)")
-    modes = _Modes(belt, c, _k_max(omega, e_all, nu, rho, h, extent))
+    modes = _Modes(belt, c, ring_truncation(omega, e_all, nu, rho, h, extent))
     port = _port(modes, nu, rho, h, port_step, exact_below)
     ax, ay = np.abs(offsets[:, 0]), np.abs(offsets[:, 1])
     uy, inverse = np.unique(ay, return_inverse=True)
@@ -443,7 +427,7 @@ def belt_velocity_at_points(force_history, element_x, element_y, sample_rate, ob
     del flat, spec_flat
     e_all = np.asarray(material.modulus(omega), dtype=complex)
     lap = 1j * omega  # s = i w: the modes' weights are written in s
-    modes = _Modes(belt, c, _k_max(omega, e_all, nu, rho, h, extent))
+    modes = _Modes(belt, c, ring_truncation(omega, e_all, nu, rho, h, extent))
     port = _port(modes, nu, rho, h, port_step, exact_below)
     phase_e = np.exp(-1j * np.outer(modes.kx, ex))  # (N_n, nx): exp(-i kx x_e)
 
