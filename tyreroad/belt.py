@@ -327,10 +327,17 @@ def belt_impedance(kx, ky, omega, belt: BeltProperties):
     kx = checks.finite_array("kx", kx)
     ky = checks.finite_array("ky", ky)
     omega = checks.nonnegative_array("omega", omega)
+    elastic, tension = belt_stiffness_terms(kx, ky, belt)
+    z = belt.stiffness_factor(omega) * elastic + tension - belt.mass * omega * omega
+    return np.asarray(z, dtype=complex)[()]
+
+
+def belt_stiffness_terms(kx, ky, belt: BeltProperties):
+    """(D_x kx^4 + 2 D_xy kx^2 ky^2 + D_y ky^4 + s, T_x kx^2 + T_y ky^2) [Pa/m]: the parts of Z that the loss factor
+    phi multiplies and the lossless tension, so that Z = phi elastic + tension - m w^2."""
     kx2, ky2 = kx * kx, ky * ky
     elastic = belt.bending_x * kx2 * kx2 + 2.0 * belt.bending_xy * kx2 * ky2 + belt.bending_y * ky2 * ky2 + belt.bed
-    z = belt.stiffness_factor(omega) * elastic + belt.tension_x * kx2 + belt.tension_y * ky2 - belt.mass * omega * omega
-    return np.asarray(z, dtype=complex)[()]
+    return elastic, belt.tension_x * kx2 + belt.tension_y * ky2
 
 
 def _one_minus_exp_over(y):

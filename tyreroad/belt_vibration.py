@@ -111,7 +111,8 @@ import scipy.fft
 import scipy.sparse
 
 from . import checks
-from .belt import BeltProperties, _element_inputs, _sinc, _two_port_numpy, ring_modes, ring_truncation
+from .belt import (BeltProperties, _element_inputs, _sinc, _two_port_numpy, belt_stiffness_terms, ring_modes,
+                   ring_truncation)
 from .rolling.analysis import band_levels, third_octave_centres
 
 __all__ = [
@@ -146,10 +147,7 @@ class _Modes:
         kxg, kyg = np.meshgrid(self.kx, self.ky, indexing="ij")
         self.k = np.hypot(kxg, kyg)
         self.base = weight * _sinc(0.5 * element_size * kxg) * _sinc(0.5 * element_size * kyg)
-        kx2, ky2 = kxg * kxg, kyg * kyg
-        self.elastic = (belt.bending_x * kx2 * kx2 + 2.0 * belt.bending_xy * kx2 * ky2 + belt.bending_y * ky2 * ky2
-                        + belt.bed)
-        self.tension = belt.tension_x * kx2 + belt.tension_y * ky2
+        self.elastic, self.tension = belt_stiffness_terms(kxg, kyg, belt)
 
     @property
     def size(self) -> int:
