@@ -2,7 +2,7 @@
 
 The unmarked tests plan the study with the profile (no cluster needed). The test marked ``slurm``
 starts a real single-node SLURM cluster with accounting on loopback (tests/slurm/cluster.sh),
-runs the tiny study of config/test.yaml through it with the profile and compares every netCDF
+runs the tiny study of config/test.yaml (cut further by tests/slurm/study.yaml) through it with the profile and compares every netCDF
 result with a local ``snakemake -j2`` run of the same study: the data must be identical. It is
 left out of a plain ``pytest`` (pyproject addopts) and run with ``pytest -m slurm``, as root on a
 Debian-like machine (the script installs slurm-wlm, slurmdbd, munge and mariadb-server with apt
@@ -28,7 +28,8 @@ from tyreroad.cluster import CLUSTER_RULES
 
 ROOT = Path(__file__).resolve().parents[1]
 CLUSTER_SCRIPT = ROOT / "tests" / "slurm" / "cluster.sh"
-CONFIGS = ["--configfile", "config/config.yaml", "config/test.yaml"]
+# the study the cluster test runs twice (locally and through SLURM): config/test.yaml, cut to one loss variant
+CONFIGS = ["--configfile", "config/config.yaml", "config/test.yaml", str(ROOT / "tests" / "slurm" / "study.yaml")]
 ACCOUNT_ENV = "TYREROAD_SLURM_ACCOUNT"
 PARTITION_ENV = "TYREROAD_SLURM_PARTITION"
 # global attributes that record when a file was written, not what it contains

@@ -68,7 +68,6 @@ from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 import xarray as xr
-from scipy.signal import savgol_filter
 
 from ..study import (
     StudySettings,
@@ -219,6 +218,8 @@ def ripple(indentation: np.ndarray, stiffness: np.ndarray, d_max: float, window:
         raise ValueError(f"stiffness has NaN samples below d = {d_max + window:g} m; cannot measure ripple")
     if ku.size < n_win:
         raise ValueError(f"only {ku.size} samples below d = {d_max + window:g} m, fewer than the ripple window")
+    from scipy.signal import savgol_filter  # here, not at the top: scipy.signal costs ~0.5 s of every Snakemake start
+
     resid = ku - savgol_filter(ku, n_win, 2, mode="interp")
     sel = (d[use] > 0) & (d[use] <= d_max * (1 + 1e-9))
     return float(np.sqrt(np.mean(resid[sel] ** 2)) / k_ref)
