@@ -1,0 +1,199 @@
+"""Patterned treads (tyreroad.pattern): placement, block-diagonal influence, the pattern kernel in the contact
+solver (degenerate pattern == slick run, grooves carry no force, blocks do not interact) and config errors."""
+
+from __future__ import annotations
+
+import copy
+import math
+
+import numpy as np
+import pytest
+
+from tyreroad.config import ConfigError, check_config, load_config
+from tyreroad.contact import run_loading_path
+from tyreroad.influence import contact_set_stiffness, offset_matrix
+from tyreroad.kernel import LayerKernel
+from tyreroad.loading import IndentationPath, uniform_indentation_grid
+from tyreroad.material import material_from_config
+from tyreroad.pattern import (
+    PatchInfluence,
+    PatternGeometry,
+    PatternKernel,
+    groove_springs,
+    influence_memory,
+    place_pattern,
+    standin_block_influence,
+)
+from tyreroad.solver import SolverSettings
+from tyreroad.springs import SpringTable
+
+C = 1.0e-3
+E_STAR = 25e6 / (1 - 0.49**2)
+
+
+def _z1(nx, ny, rng):
+    z1 = -rng.exponential(0.15e-3 / math.log(2), size=(nx, ny))
+    return z1 - z1.max() + 3e-3
+
+
+def _springs(n, rng, step=1e-6, zeta_max=4e-4):
+    zeta = np.arange(round(zeta_max / step) + 1) * step
+    radius = rng.uniform(1e-3, 4e-3, size=n)[:, None]
+    area = np.minimum(np.maximum((C / 26) ** 2, np.pi * radius * zeta[None, :]), C**2)
+    k = 2 * E_STAR * np.sqrt(area / np.pi)
+    f = np.zeros_like(k)
+    np.cumsum(0.5 * step * (k[:, 1:] + k[:, :-1]), axis=1, out=f[:, 1:])
+    return SpringTable.checked(k, f, step, n)
+
+
+def _table(nx, ny):
+    """A layer-like even offset table g[dx, dy] [m/N] (Boussinesq with a layer cut-off)."""
+    dx = np.arange(-(nx - 1), nx)[:, None] * C
+    dy = np.arange(-(ny - 1), ny)[None, :] * C
+    r = np.hypot(dx, dy)
+    with np.errstate(divide="ignore"):
+        g = np.where(r > 0, 1 / (np.pi * E_STAR * np.maximum(r, 1e-30)), 1.1222 / (E_STAR * C))
+    return g * np.exp(-r / 0.01) * (1 - 0.1 * r / 0.008)
+
+
+SETTINGS = SolverSettings(d_max=2.5e-4, quasistatic_step=1e-5, method="dense")
+
+
+def _run(kernel, z1, springs):
+    d = uniform_indentation_grid(SETTINGS.d_max, SETTINGS.quasistatic_step)
+    return run_loading_path(IndentationPath(z1, d), springs, kernel, SETTINGS)
+
+
+def test_placement_masks_grooves_and_numbers_blocks():
+    geo = PatternGeometry("p", 3e-3, 2e-3, 1e-3, 5e-3, C)  # 3 x 2 blocks, period 4 x 3
+    lay = place_pattern(geo, (9, 5), (-1e-3, 0.0))  # the patch starts in a groove along x
+    # x: pattern columns -1 ... 7 -> within period 3,0,1,2,3,0,1,2,3 (3 = groove); y: 0,1,2,0,1 (2 = groove)
+    gx = np.array([1, 0, 0, 0, 1, 0, 0, 0, 1], bool)
+    gy = np.array([0, 0, 1, 0, 0], bool)
+    np.testing.assert_array_equal(lay.grooved, gx[:, None] | gy[None, :])
+    assert lay.grooved_fraction == pytest.approx(1 - 6 * 4 / 45)
+    assert len(lay.blocks) == 4 and lay.whole_blocks() == 4
+    # local index: row-major over x then y from the block's corner
+    assert lay.local_index[1, 0] == 0 and lay.local_index[1, 1] == 1 and lay.local_index[2, 0] == 2
+    assert lay.local_index[3, 1] == 5
+    assert lay.block_index[1, 0] == lay.block_index[3, 1] != lay.block_index[5, 0]
+    assert np.all(lay.local_index[lay.grooved] == -1) and np.all(lay.block_index[lay.grooved] == -1)
+    # a cut block at the patch edge keeps its inside elements
+    cut = place_pattern(geo, (5, 5), (0.0, 0.0))
+    assert sorted(idx.size for idx, _ in cut.blocks) == [2, 2, 6, 6] and cut.whole_blocks() == 2
+    with pytest.raises(ValueError, match=r"pattern.patch_origin\[0\] = 0.0005 m: expected a whole multiple"):
+        place_pattern(geo, (5, 5), (0.5e-3, 0.0))
+    with pytest.raises(ValueError, match=r"pattern.presets.q.block_length = 0.0025 m: expected a positive whole"):
+        PatternGeometry("q", 2.5e-3, 2e-3, 1e-3, 5e-3, C)
+
+
+def test_patch_influence_is_block_diagonal():
+    geo = PatternGeometry("p", 4e-3, 3e-3, 1e-3, 5e-3, C)
+    lay = place_pattern(geo, (12, 9), (2e-3, 0.0))
+    gb = offset_matrix(_table(4, 3))
+    infl = PatchInfluence(lay, gb)
+    g = infl.matrix()
+    same = (lay.block_index.ravel()[:, None] == lay.block_index.ravel()[None, :]) & (lay.block_index.ravel()[:, None] >= 0)
+    assert np.all(g[~same] == 0.0) and np.all(g[same] != 0.0)
+    # a force on one block moves no other block (and no groove)
+    rng = np.random.default_rng(1)
+    for b, (idx, loc) in enumerate(lay.blocks):
+        f = np.zeros(lay.shape)
+        f.ravel()[idx] = rng.uniform(0.1, 1.0, idx.size)
+        w = infl.apply(f)
+        assert np.all(w.ravel()[lay.block_index.ravel() != b] == 0.0)
+        np.testing.assert_allclose(w.ravel()[idx], gb[np.ix_(loc, loc)] @ f.ravel()[idx], rtol=1e-14)
+    active = rng.choice(g.shape[0], 40, replace=False)
+    np.testing.assert_array_equal(infl.block(active), g[np.ix_(active, active)])
+    k = rng.uniform(0, 1e5, g.shape[0]) * (rng.uniform(size=g.shape[0]) > 0.3) * ~lay.grooved.ravel()
+    assert infl.stiffness(k) == pytest.approx(float(contact_set_stiffness(g, k)), rel=1e-12)
+    mem = influence_memory(lay)
+    assert mem["block_table"] == 8 * 12**2 and mem["dense_patch"] == 8 * 108**2
+    with pytest.raises(ValueError, match=r"block_table: expected shape \(12, 12\)"):
+        PatchInfluence(lay, gb[:6, :6])
+
+
+def test_degenerate_pattern_reproduces_slick_run():
+    """One block covering the patch, its table the flat kernel's offset matrix: the slick dense run to 1e-12."""
+    nx, ny = 8, 6
+    rng = np.random.default_rng(7)
+    z1, springs, table = _z1(nx, ny, rng), _springs(nx * ny, rng), _table(nx, ny)
+    slick = _run(LayerKernel.quasistatic(table, C), z1, springs)
+    lay = place_pattern(PatternGeometry("one", nx * C, ny * C, 0.0, 0.0, C), (nx, ny))
+    assert not lay.grooved.any() and len(lay.blocks) == 1
+    pat = _run(PatternKernel.from_block(lay, offset_matrix(table)), z1, springs)
+    assert slick.contact_count[-1] > nx * ny // 3
+    np.testing.assert_allclose(pat.force, slick.force, rtol=1e-12, atol=1e-12 * slick.force.max())
+    np.testing.assert_allclose(pat.element_force, slick.element_force, rtol=0, atol=1e-12 * slick.element_force.max())
+    np.testing.assert_allclose(pat.tangent_stiffness, slick.tangent_stiffness, rtol=1e-12)
+    np.testing.assert_allclose(pat.displacement, slick.displacement, rtol=0, atol=1e-12 * slick.displacement.max())
+
+
+def test_grooves_carry_no_force_and_blocks_do_not_interact():
+    geo = PatternGeometry("p", 4e-3, 3e-3, 1e-3, 5e-3, C)
+    nx, ny = 12, 9
+    lay = place_pattern(geo, (nx, ny), (0.0, 0.0))
+    rng = np.random.default_rng(11)
+    z1, springs = _z1(nx, ny, rng), _springs(nx * ny, rng)
+    kernel = PatternKernel.from_block(lay, offset_matrix(_table(4, 3)))
+    res = _run(kernel, z1, groove_springs(springs, lay.grooved))
+    assert np.all(res.element_force[:, lay.grooved] == 0.0)
+    assert res.contact_count[-1] > 0.3 * (~lay.grooved).sum()
+    # each block solved alone (its elements only, the rest of the patch without springs) gives the same forces
+    for b, (idx, _) in enumerate(lay.blocks):
+        alone = lay.block_index != b
+        one = _run(kernel, z1, groove_springs(springs, alone))
+        np.testing.assert_allclose(one.element_force[:, ~alone], res.element_force[:, ~alone], rtol=0,
+                                   atol=1e-12 * res.element_force.max())
+    # the equations hold: zeta = z1 - z2 - G F on every block
+    d = res.indentation
+    w = np.array([kernel.influence.apply(f) for f in res.element_force])
+    zeta = (z1 - z1.max())[None] + d[:, None, None] - w
+    np.testing.assert_allclose(res.compression, zeta, rtol=0, atol=2e-12)
+
+
+def test_standin_block_influence_is_the_layer_kernel_on_the_block():
+    cfg = load_config("config/config.yaml")
+    tread = material_from_config("tread", cfg["materials"])
+    geo = PatternGeometry("b", 4e-3, 3e-3, 1e-3, 5e-3, C)
+    xy, g = standin_block_influence(geo, tread)
+    assert xy.shape == (12, 2) and g.shape == (12, 12)
+    np.testing.assert_allclose(xy[3], [1.5e-3, 0.5e-3])  # element (1, 0): row-major over x then y
+    np.testing.assert_array_equal(g, g.T)
+    from tyreroad.greens import static_element_kernel
+
+    for i, j in [(0, 11), (5, 7), (3, 3)]:
+        ref = static_element_kernel(np.abs(xy[i] - xy[j])[None, :], C, tread.quasi_static_modulus, tread.poisson,
+                                    tread.thickness)[0]
+        assert g[i, j] == pytest.approx(ref, rel=1e-12)
+
+
+def _pattern_config():
+    cfg = load_config("config/config.yaml")
+    cfg.setdefault("pattern", {})
+    return cfg
+
+
+@pytest.mark.parametrize("edit, message", [
+    (lambda p: p["presets"]["block20"].update(block_length=0.0205),
+     r"pattern.presets.block20.block_length = 0.0205 m: expected a positive whole multiple of the element size"),
+    (lambda p: p["presets"]["block20"].update(groove_depth=0.012),
+     r"pattern.presets.block20.groove_depth = 0.012 m: expected a depth not above the tread thickness of material "
+     r"'tread' \(0.01 m\)"),
+    (lambda p: p["presets"]["block40"].update(block_length=0.090),
+     r"pattern.patch_origin = \[0.0, 0.0\] m: the patch of surfaces.iso10844-pattern.patch_elements = \[85, 40\] "
+     r"holds no whole 90 x 40-element block of pattern 'block40'"),
+    (lambda p: p.update(patch_origin=[0.0005, 0.0]),
+     r"pattern.patch_origin\[0\] = 0.0005 m: expected a whole multiple of the element size"),
+    (lambda p: p["presets"]["block20"].update(groove_width=0.0),
+     r"pattern.presets.block20.groove_width = 0.0 m: expected at least one element"),
+    (lambda p: p.update(surface="nope"), r"pattern.surface = 'nope': expected a preset in surfaces"),
+    (lambda p: p["presets"].update(slick=dict(p["presets"]["block20"])),
+     r"pattern.presets.slick: the name 'slick' is the unpatterned reference"),
+])
+def test_pattern_config_errors_name_key_value_and_expectation(edit, message):
+    cfg = _pattern_config()
+    check_config(copy.deepcopy(cfg))  # the shipped section is valid
+    edit(cfg["pattern"])
+    with pytest.raises(ConfigError, match=message):
+        check_config(cfg)
