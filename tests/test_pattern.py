@@ -22,8 +22,8 @@ from tyreroad.pattern import (
     groove_springs,
     influence_memory,
     place_pattern,
-    standin_block_influence,
 )
+from tyreroad.pattern_stage import standin_block_influence
 from tyreroad.solver import SolverSettings
 from tyreroad.springs import SpringTable
 
@@ -188,6 +188,9 @@ def _pattern_config():
     (lambda p: p["presets"]["block20"].update(groove_width=0.0),
      r"pattern.presets.block20.groove_width = 0.0 m: expected at least one element"),
     (lambda p: p.update(surface="nope"), r"pattern.surface = 'nope': expected a preset in surfaces"),
+    (lambda p: p.update(modes=["quasistatic", "dynamic"]),
+     r"pattern.modes = \['quasistatic', 'dynamic'\]: expected \['quasistatic'\] \(the pattern kernel is static"),
+    (lambda p: p.update(materials=["rubber"]), r"pattern.materials\[0\] = 'rubber': expected a preset in materials"),
     (lambda p: p["presets"].update(slick=dict(p["presets"]["block20"])),
      r"pattern.presets.slick: the name 'slick' is the unpatterned reference"),
 ])

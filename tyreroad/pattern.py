@@ -34,7 +34,7 @@ subclass that hands the march a dense, non-Toeplitz static G_0 (quasi-static mod
 
 Block influence table. The FE cell model (``tyreroad.fe_pattern.block_static_influence``, written
 separately) gives (element_centres_xy (N, 2) [m], G (N, N) [m/N]). Until it is merged the stage uses the
-stand-in :func:`standin_block_influence`: the flat layer's static element kernel restricted to the block's
+stand-in :func:`tyreroad.pattern_stage.standin_block_influence`: the flat layer's static element kernel restricted to the block's
 elements, G_b[i, j] = g_static(x_i - x_j, y_i - y_j) -- a block with no edge effect (the layer under a
 block is laterally infinite and continuous under the grooves). With the stand-in, a pattern changes the
 contact only through the grooves (elements removed from contact) and the cut coupling between blocks.
@@ -72,11 +72,8 @@ __all__ = [
     "StaticHistory",
     "PatternKernel",
     "groove_springs",
-    "standin_block_influence",
     "influence_memory",
     "check_pattern_config",
-    "pattern_greens_dataset",
-    "slick_greens_dataset",
     "kernel_from_pattern_greens",
     "solve_pattern_run",
     "pattern_contact_dataset",
@@ -86,8 +83,8 @@ __all__ = [
 #: The name of the slick (unpatterned) tread in the pattern study's file names and case labels.
 SLICK = "slick"
 #: Where a block's influence table comes from (config ``pattern.influence``): ``standin`` is the analytic
-#: layer kernel restricted to the block (:func:`standin_block_influence`); the FE cell model
-#: (``tyreroad.fe_pattern``) is added to this tuple when it is merged.
+#: layer kernel restricted to the block (:func:`tyreroad.pattern_stage.standin_block_influence`); the FE cell
+#: model (``tyreroad.fe_pattern``) is added to this tuple when it is merged.
 PATTERN_INFLUENCES = ("standin",)
 
 #: Relative tolerance for "a whole multiple of the element size".
@@ -505,97 +502,6 @@ def groove_springs(springs, grooved):
     return SpringTable.checked(k, f, springs.zeta_step, mask.size)
 
 
-# --------------------------------------------------------------------------------------------
-# The block influence table (stand-in) and the greens stage's datasets
-# --------------------------------------------------------------------------------------------
-def _static_offset_table(shape, element_size: float, material) -> np.ndarray:
-    """g_static[dx, dy] [m/N] of the flat layer for offsets -(nx-1) ... nx-1, -(ny-1) ... ny-1."""
-    from .greens import offset_table_index, static_element_kernel, unique_offsets
-
-    uniq = unique_offsets(shape)
-    values = static_element_kernel(uniq * element_size, element_size, material.quasi_static_modulus,
-                                   material.poisson, material.thickness)
-    _, _, index = offset_table_index(shape)
-    return values[index]
-
-
-def standin_block_influence(pattern: PatternGeometry, material) -> tuple[np.ndarray, np.ndarray]:
-    """The stand-in for ``tyreroad.fe_pattern.block_static_influence``: the flat layer's static element kernel
-    restricted to one block's elements (a block with no edge effect), same call shape and return.
-
-    Parameters
-    ----------
-    pattern : PatternGeometry
-        The pattern (its block size and element size).
-    material : tyreroad.material.Material
-        The tread (quasi-static modulus, Poisson's ratio, thickness).
-
-    Returns
-    -------
-    element_centres_xy : numpy.ndarray
-        Centres [m] of the block's N elements, row-major over x then y, shape (N, 2).
-    G : numpy.ndarray
-        G[i, j] = g_static(x_i - x_j, y_i - y_j) [m/N], shape (N, N).
-    """
-    from .influence import offset_matrix
-
-    table = _static_offset_table(pattern.block_elements, pattern.element_size, material)
-    return pattern.element_centres(), offset_matrix(table)
-
-
-def pattern_greens_dataset(pattern: PatternGeometry, material, influence: str = "standin") -> xr.Dataset:
-    """The block influence table of one pattern and material (``results/greens/pattern/{pattern}/{material}.nc``).
-
-    Variables ``influence`` (element, source) [m/N], coordinates ``x``, ``y`` of the element centres [m]; the
-    geometry, the memory of the table (``influence_bytes``) and the compute time (``compute_time_s``) as
-    attributes.
-    """
-    if influence not in PATTERN_INFLUENCES:
-        raise ValueError(f"pattern.influence = {influence!r}: expected one of {PATTERN_INFLUENCES}")
-    start = time.perf_counter()
-    xy, g = standin_block_influence(pattern, material)
-    elapsed = time.perf_counter() - start
-    n = g.shape[0]
-    logger.info("pattern %s, material %s: block of %d x %d elements, influence table %d x %d (%.3g MB) in %.3g s",
-                pattern.name, material.name, *pattern.block_elements, n, n, 8e-6 * n * n, elapsed)
-    el = {"units": "1", "long_name": "element index in the block (row-major over x then y)"}
-    ds = xr.Dataset(
-        {"influence": (("element", "source"), g, {"units": "m/N", "long_name": "static displacement at the element "
-                       "centre per unit force spread over the source element (block influence G_b)"})},
-        coords={"element": ("element", np.arange(n), el), "source": ("source", np.arange(n), dict(el)),
-                "x": ("element", xy[:, 0], {"units": "m", "long_name": "element centre x from the block corner"}),
-                "y": ("element", xy[:, 1], {"units": "m", "long_name": "element centre y from the block corner"})},
-        attrs={"pattern": pattern.name, "kind": "pattern", "influence_model": influence,
-               "influence_note": ("stand-in: the flat layer's static element kernel restricted to the block's elements "
-                                  "(no edge effect); to be replaced by the FE cell model (tyreroad.fe_pattern)"),
-               "material": material.name, "element_size": pattern.element_size,
-               "block_elements": np.asarray(pattern.block_elements, dtype=np.int64),
-               "block_length": pattern.block_length, "block_width": pattern.block_width,
-               "groove_width": pattern.groove_width, "groove_depth": pattern.groove_depth,
-               "influence_bytes": np.int64(8 * n * n),
-               "memory_note": "one N x N table for every block of the patch (block diagonal): memory independent of "
-                              "the number of blocks",
-               "compute_time_s": elapsed},
-    )
-    return ds
-
-
-def slick_greens_dataset(shape, element_size: float, material) -> xr.Dataset:
-    """The slick tread's static offset table g_static[dx, dy] [m/N] over a patch of ``shape`` (the reference of the
-    pattern study; translation invariant: (2 nx - 1)(2 ny - 1) values)."""
-    start = time.perf_counter()
-    table = _static_offset_table(tuple(shape), float(element_size), material)
-    elapsed = time.perf_counter() - start
-    nx, ny = (table.shape[0] + 1) // 2, (table.shape[1] + 1) // 2
-    return xr.Dataset(
-        {"g_static": (("dx", "dy"), table, {"units": "m/N", "long_name": "quasi-static element Green's function"})},
-        coords={"dx": ("dx", np.arange(-(nx - 1), nx), {"units": "1", "long_name": "element offset along x"}),
-                "dy": ("dy", np.arange(-(ny - 1), ny), {"units": "1", "long_name": "element offset along y"})},
-        attrs={"pattern": SLICK, "kind": "slick", "material": material.name, "element_size": float(element_size),
-               "influence_bytes": np.int64(table.nbytes), "compute_time_s": elapsed},
-    )
-
-
 def kernel_from_pattern_greens(greens: xr.Dataset, shape, origin=(0.0, 0.0)) -> LayerKernel:
     """The static kernel of a pattern greens file on a patch of ``shape`` placed at ``origin`` [m]: a
     :class:`PatternKernel` for a pattern, the offset-table :class:`LayerKernel` for the slick tread."""
@@ -747,7 +653,9 @@ def pattern_study(contacts: Sequence[xr.Dataset], greens: Sequence[xr.Dataset], 
         "solver_path": ("case", [r["path"] for r in rows], {"units": "1", "long_name": "substrate of the contact run"}),
         "indentation": ("indentation", grid_d, {"units": "m", "long_name": "indentation d"}),
     }
+    notes = sorted({str(g.attrs["influence_note"]) for g in greens if "influence_note" in g.attrs})
     return xr.Dataset(data, coords=coords, attrs={
+        "influence_note": "; ".join(notes) or "slick tread only",
         "saturation_range_m": np.asarray(study_settings.saturation_range, dtype=float),
         "stiffness_method": "as results/study.nc: tangent dF/dd of each static state, cubic Hermite onto the grid, "
                             "K_sat = median over the saturation range"})
@@ -767,7 +675,16 @@ def check_pattern_config(config: Mapping[str, Any]) -> None:
     """
     section = config.get("pattern") or {}
     presets = section.get("presets") or {}
+    modes = list(section.get("modes", ["quasistatic"]))
+    if modes != ["quasistatic"]:
+        raise ValueError(f"pattern.modes = {modes!r}: expected ['quasistatic'] (the pattern kernel is static: a "
+                         "dynamic block kernel, its history and memory, is not built)")
+    if presets and (config.get("springs", {}) or {}).get("rheology", "elastic") != "elastic":
+        raise ValueError(f"pattern.presets: the pattern study runs elastic springs on a static kernel; expected "
+                         f"springs.rheology = 'elastic', got {config['springs']['rheology']!r}")
     if not presets:
+        if section.get("study", False):
+            raise ValueError("pattern.study = True: expected at least one preset in pattern.presets")
         return
     surface = section.get("surface")
     if surface not in config["surfaces"]:
@@ -782,6 +699,9 @@ def check_pattern_config(config: Mapping[str, Any]) -> None:
                          "another preset name")
     from .material import material_from_config
 
+    for i, material in enumerate(section.get("materials", [])):
+        if material not in config["materials"]:
+            raise ValueError(f"pattern.materials[{i}] = {material!r}: expected a preset in materials")
     for name, preset in presets.items():
         geometry = PatternGeometry.from_config(name, preset, c)
         if geometry.groove_elements < 1:

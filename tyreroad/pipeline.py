@@ -38,6 +38,10 @@ __all__ = [
     "run_stiffness_spectrum",
     "run_stiffness_figure",
     "run_stiffness_combined",
+    "run_pattern_greens",
+    "run_pattern_contact",
+    "run_pattern_study",
+    "run_pattern_report",
 ]
 
 
@@ -902,3 +906,84 @@ def run_rolling_report(rolling_nc: str | Path, out_md: str | Path, figure_pngs: 
             logger.warning("rolling report: %s is missing; the spring comparison says so", path)
     write_report(build_rolling_report(io.read_dataset(rolling_nc), figures=figures, reference=reference,
                                       reference_label=label), out_md)
+
+
+# ----------------------------------------------------------------------------------------------
+# Patterned treads (issue 27; tyreroad.pattern, workflow/rules/pattern.smk)
+# ----------------------------------------------------------------------------------------------
+def run_pattern_greens(
+    pattern_name: str,
+    pattern_cfg: Mapping[str, Any] | None,
+    influence: str,
+    material_name: str,
+    material_cfg: Mapping[str, Any],
+    element_size: float,
+    patch_elements: Sequence[int],
+    out_nc: str | Path,
+) -> None:
+    """Stage ``pattern_greens``: the block influence table of a pattern preset (``pattern_cfg``), or, for
+    ``pattern_name = 'slick'`` (``pattern_cfg`` None), the flat layer's static offset table over the patch
+    (``patch_elements``), with its memory and compute time."""
+    from .pattern import PatternGeometry
+    from .pattern_stage import pattern_greens_dataset, slick_greens_dataset
+
+    material = _material(material_name, material_cfg)
+    if pattern_cfg is None:
+        ds = slick_greens_dataset(tuple(patch_elements), float(element_size), material)
+    else:
+        ds = pattern_greens_dataset(PatternGeometry.from_config(pattern_name, pattern_cfg, float(element_size)),
+                                    material, influence)
+    provenance = {"pattern": {pattern_name: None if pattern_cfg is None else dict(pattern_cfg)},
+                  "influence": influence, "material": {material_name: dict(material.config)},
+                  "element_size": float(element_size), "patch_elements": list(patch_elements)}
+    io.write_dataset(ds, out_nc, provenance, stage="pattern_greens", material=material_name)
+
+
+def run_pattern_contact(
+    surface_nc: str | Path,
+    springs_nc: str | Path,
+    greens_nc: str | Path,
+    surface_name: str,
+    material_name: str,
+    pattern_name: str,
+    patch_origin: Sequence[float],
+    solver_cfg: Mapping[str, Any],
+    out_nc: str | Path,
+    threads: int = 1,
+) -> None:
+    """Stage ``pattern_contact``: one quasi-static run on a patterned (or the slick) tread, grooved elements out
+    of contact (:func:`tyreroad.pattern.solve_pattern_run`)."""
+    from .contact import SolverSettings
+    from .pattern import pattern_contact_dataset, solve_pattern_run
+
+    settings = SolverSettings.from_config(solver_cfg)
+    surface, springs, greens = io.read_dataset(surface_nc), io.read_dataset(springs_nc, SPRING_TABLES), \
+        io.read_dataset(greens_nc)
+    result, grooved, elapsed = solve_pattern_run(surface, springs, greens, settings, tuple(patch_origin), threads)
+    shape = grooved.shape
+    path = ("pattern: block-diagonal dense" if str(greens.attrs.get("kind")) == "pattern"
+            else f"slick: {settings.resolved_method(shape[0] * shape[1])}")
+    ds = pattern_contact_dataset(result, grooved, elapsed, surface_name, material_name, pattern_name, path)
+    provenance = {"solver": dict(solver_cfg), "patch_origin": list(patch_origin), "pattern": pattern_name}
+    io.write_dataset(ds, out_nc, provenance, stage="pattern_contact", surface=surface_name, material=material_name)
+
+
+def run_pattern_study(
+    contact_ncs: Sequence[str | Path], greens_ncs: Sequence[str | Path], study_cfg: Mapping[str, Any], d_max: float,
+    out_nc: str | Path,
+) -> None:
+    """Stage ``pattern_study``: K(d), K_sat per pattern beside the slick tread's (the study's definitions), the
+    grooved fraction, the influence tables' memory and the stage times (:func:`tyreroad.pattern.pattern_study`)."""
+    from .pattern import pattern_study
+    from .study import StudySettings
+
+    settings = StudySettings.from_config(study_cfg, d_max=d_max)
+    ds = pattern_study([io.read_dataset(p) for p in contact_ncs], [io.read_dataset(p) for p in greens_ncs], settings)
+    io.write_dataset(ds, out_nc, {"study": dict(study_cfg), "d_max": d_max}, stage="pattern_study")
+
+
+def run_pattern_report(study_nc: str | Path, out_md: str | Path) -> None:
+    """Stage ``pattern_report``: the pattern study's section as ``pattern.md``."""
+    from .report.pattern import write_pattern_report
+
+    write_pattern_report(io.read_dataset(study_nc), out_md, source=str(study_nc))
