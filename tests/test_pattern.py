@@ -200,3 +200,12 @@ def test_pattern_config_errors_name_key_value_and_expectation(edit, message):
     edit(cfg["pattern"])
     with pytest.raises(ConfigError, match=message):
         check_config(cfg)
+
+
+def test_pattern_study_refuses_qlv_springs_only_when_it_runs():
+    """QLV springs: overlays still plan the rest of the study (pattern.study off); with the study on, refused."""
+    cfg = load_config("config/config.yaml", "config/springs-qlv.yaml")
+    check_config(copy.deepcopy(cfg))
+    cfg["pattern"]["study"] = True
+    with pytest.raises(ConfigError, match=r"springs.rheology = 'qlv': expected 'elastic' for the pattern study"):
+        check_config(cfg)

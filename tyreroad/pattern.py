@@ -74,6 +74,7 @@ __all__ = [
     "groove_springs",
     "influence_memory",
     "check_pattern_config",
+    "check_pattern_springs",
     "kernel_from_pattern_greens",
     "solve_pattern_run",
     "pattern_contact_dataset",
@@ -661,6 +662,18 @@ def pattern_study(contacts: Sequence[xr.Dataset], greens: Sequence[xr.Dataset], 
                             "K_sat = median over the saturation range"})
 
 
+def check_pattern_springs(config: Mapping[str, Any]) -> None:
+    """Refuse viscoelastic (QLV) springs for pattern runs: they run elastic spring tables on a static kernel.
+
+    Called at planning time when the pattern study is on (``pattern.study``) and when a pattern job is planned
+    (the named target ``pattern``), so that overlays with QLV springs still plan the rest of the study.
+    """
+    rheology = (config.get("springs", {}) or {}).get("rheology", "elastic")
+    if rheology != "elastic":
+        raise ValueError(f"springs.rheology = {rheology!r}: expected 'elastic' for the pattern study (its runs use "
+                         "the elastic spring tables on a static block kernel; QLV springs on a pattern are not built)")
+
+
 def check_pattern_config(config: Mapping[str, Any]) -> None:
     """The planning-time checks of the ``pattern`` section (called by :func:`tyreroad.config.check_config`).
 
@@ -679,9 +692,8 @@ def check_pattern_config(config: Mapping[str, Any]) -> None:
     if modes != ["quasistatic"]:
         raise ValueError(f"pattern.modes = {modes!r}: expected ['quasistatic'] (the pattern kernel is static: a "
                          "dynamic block kernel, its history and memory, is not built)")
-    if presets and (config.get("springs", {}) or {}).get("rheology", "elastic") != "elastic":
-        raise ValueError(f"pattern.presets: the pattern study runs elastic springs on a static kernel; expected "
-                         f"springs.rheology = 'elastic', got {config['springs']['rheology']!r}")
+    if presets and section.get("study", False):
+        check_pattern_springs(config)
     if not presets:
         if section.get("study", False):
             raise ValueError("pattern.study = True: expected at least one preset in pattern.presets")

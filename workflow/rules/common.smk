@@ -25,6 +25,7 @@ from tyreroad.pipeline import material_compounds as _material_compounds
 from tyreroad.pipeline import material_variants as _material_variants
 from tyreroad.pipeline import resolved_material_config as _resolved_material_config
 from tyreroad.pipeline import spring_material_inputs as _spring_material_inputs
+from tyreroad.pattern import check_pattern_springs as _check_pattern_springs
 from tyreroad.provenance import STAGE_MODULES, source_hash
 
 SCHEMA = Path(workflow.current_basedir) / "../schemas/config.schema.yaml"
@@ -387,6 +388,11 @@ def pattern_surface_spec():
 def pattern_preset(wildcards):
     """The pattern preset of a job (None for the slick tread), after checking its presets (planning time)."""
     checked(wildcards)
+    with naming_config_files(CONFIG_FILES):
+        try:
+            _check_pattern_springs(config)
+        except ValueError as exc:
+            raise ConfigError(str(exc)) from None
     presets = PATTERN.get("presets", {}) or {}
     if wildcards.pattern != "slick" and wildcards.pattern not in presets:
         raise ConfigError(f"pattern {wildcards.pattern!r} is not a preset in pattern.presets; expected one of: "
