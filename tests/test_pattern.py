@@ -209,3 +209,81 @@ def test_pattern_study_refuses_qlv_springs_only_when_it_runs():
     cfg["pattern"]["study"] = True
     with pytest.raises(ConfigError, match=r"springs.rheology = 'qlv': expected 'elastic' for the pattern study"):
         check_config(cfg)
+
+
+def _attrs(units, long_name):
+    return {"units": units, "long_name": long_name}
+
+
+def test_pattern_stages_end_to_end(tmp_path):
+    """The stage functions on a 12 x 9 patch: greens (pattern and slick), runs, study and report. The study's K_sat
+    uses the study's definitions; grooves carry no force; the report names every case."""
+    import xarray as xr
+
+    from tyreroad import io, pipeline
+
+    cfg = load_config("config/config.yaml")
+    nx, ny = 12, 9
+    rng = np.random.default_rng(5)
+    z1 = _z1(nx, ny, rng)
+    table = _springs(nx * ny, rng, step=2e-6)
+    surface = xr.Dataset({"z1": (("ex", "ey"), z1, _attrs("m", "element peak height"))}, attrs={"element_size": C})
+    n_zeta = table.stiffness.shape[1]
+    springs = xr.Dataset(
+        {"stiffness": (("ex", "ey", "zeta"), table.stiffness.reshape(nx, ny, -1), _attrs("N/m", "k")),
+         "force": (("ex", "ey", "zeta"), table.force.reshape(nx, ny, -1), _attrs("N", "F"))},
+        coords={"zeta": ("zeta", np.arange(n_zeta) * table.zeta_step, _attrs("m", "compression"))})
+    io.write_dataset(surface, tmp_path / "surface.nc", {})
+    io.write_dataset(springs, tmp_path / "springs.nc", {})
+    preset = {"block_length": 0.004, "block_width": 0.003, "groove_width": 0.001, "groove_depth": 0.01}
+    solver = dict(cfg["solver"], quasistatic_step=1e-5)
+    contacts, greens = [], []
+    for name, p in [("slick", None), ("b4", preset)]:
+        g = tmp_path / f"greens_{name}.nc"
+        pipeline.run_pattern_greens(name, p, "standin", "tread", cfg["materials"]["tread"], C, [nx, ny], g)
+        out = tmp_path / f"contact_{name}.nc"
+        pipeline.run_pattern_contact(tmp_path / "surface.nc", tmp_path / "springs.nc", g, "synth", "tread", name,
+                                     [1e-3, 0.0], solver, out)
+        contacts.append(out)
+        greens.append(g)
+    run = io.read_dataset(contacts[1])
+    grooved = run["grooved"].values.astype(bool)
+    assert grooved.sum() == 12 * 9 - 10 * 7  # origin 1 mm, period 5 x 4: columns 3, 8 and rows 3, 7 are grooves
+    assert np.all(run["element_force"].values[:, grooved] == 0.0)
+    assert float(run["residual"].max()) <= 1e-12
+    pipeline.run_pattern_study(contacts, greens, cfg["study"], cfg["solver"]["d_max"], tmp_path / "study.nc")
+    study = io.read_dataset(tmp_path / "study.nc")
+    assert list(study["case"].values) == ["tread/slick", "tread/b4"]
+    from tyreroad.study import StudySettings, native_samples, case_on_grid, saturated_stiffness
+
+    settings = StudySettings.from_config(dict(cfg["study"], surface="synth"), cfg["solver"]["d_max"])
+    grid = case_on_grid(native_samples(run, "b4", settings), settings)
+    k_sat = saturated_stiffness(settings.grid, grid["stiffness"], settings.saturation_range)
+    assert float(study["saturated_stiffness"][1]) == k_sat
+    k = study["saturated_stiffness"].values
+    assert float(study["slick_change"][1]) == pytest.approx(k[1] / k[0] - 1, rel=1e-12) and k[1] < k[0]
+    assert int(study["influence_bytes"][1]) == 8 * 12**2
+    pipeline.run_pattern_report(tmp_path / "study.nc", tmp_path / "pattern.md")
+    text = (tmp_path / "pattern.md").read_text()
+    assert "| tread/b4 | " in text and f"{100 * float(study['slick_change'][1]):+.2f} %" in text
+
+
+def test_pattern_target_plans_greens_runs_study_and_report(tmp_path):
+    """`snakemake -n pattern` plans one table and one run per material and pattern (slick included), outside the
+    default target."""
+    import subprocess
+    import sys
+
+    import _synthetic
+
+    wd = _synthetic.copy_workflow(tmp_path)
+    proc = subprocess.run([sys.executable, "-m", "snakemake", "-n", "-j1", "pattern", "--configfile",
+                           "config/config.yaml", "config/test.yaml"], cwd=wd, capture_output=True, text=True)
+    out = proc.stdout + proc.stderr
+    assert proc.returncode == 0, out[-3000:]
+    for rule, n in [("pattern_greens", 3), ("pattern_contact", 3), ("pattern_study", 1), ("pattern_report", 1)]:
+        assert any(line.split() == [rule, str(n)] for line in out.splitlines()), (rule, out[-2000:])
+    assert "results-test/greens/pattern/block40/tread.nc" in out
+    proc = subprocess.run([sys.executable, "-m", "snakemake", "-n", "-j1", "--configfile", "config/config.yaml",
+                           "config/test.yaml"], cwd=wd, capture_output=True, text=True)
+    assert proc.returncode == 0 and "rule pattern_" not in proc.stdout + proc.stderr
