@@ -453,6 +453,7 @@ def run_report(
     claim6_nc: str | Path | None = None,
     figure_pngs: Sequence[str | Path] = (),
     belt_ncs: Sequence[str | Path] = (),
+    pattern_nc: str | Path | None = None,
 ) -> None:
     """``results/report.md``: the seed's claims checked against the measured numbers; given the
     stiffness-spectrum files, the section on K*(f; d0); given ``loading_nc`` (results/loading.nc),
@@ -462,7 +463,9 @@ def run_report(
     ``spring_comparison`` (config key, issue 24), the section comparing this study with the
     elastic-springs study in ``spring_comparison['elastic_results']``. The figures ``figure_pngs``
     are embedded with their captions, linked relative to the report. ``belt_ncs``: the study repeated on a
-    flexible belt (results/belt/study.nc, its greens files and stiffness spectra, by folder), set beside this one."""
+    flexible belt (results/belt/study.nc, its greens files and stiffness spectra, by folder), set beside this one.
+    ``pattern_nc``: the pattern study (results/pattern/study.nc, issue 27; with pattern.study), its section
+    appended (:func:`tyreroad.report.pattern.pattern_section`)."""
     import os
 
     from .report import build_report, write_report
@@ -490,6 +493,10 @@ def run_report(
         lines = spring_comparison_section(study, [io.read_dataset(p) for p in spectra_ncs], settings, variants,
                                           Path(out_md).parent, spring_comparison["elastic_results"])
         text = text.rstrip("\n") + "\n\n" + "\n".join(lines).rstrip("\n") + "\n"
+    if pattern_nc is not None:
+        from .report.pattern import pattern_section
+
+        text = text.rstrip("\n") + "\n\n" + "\n".join(pattern_section(io.read_dataset(pattern_nc))).rstrip("\n") + "\n"
     write_report(text, out_md)
 
 
