@@ -246,6 +246,10 @@ def test_pattern_stages_end_to_end(tmp_path):
                                      [1e-3, 0.0], solver, out)
         contacts.append(out)
         greens.append(g)
+    only = tmp_path / "contact_b4_grooves.nc"
+    pipeline.run_pattern_contact(tmp_path / "surface.nc", tmp_path / "springs.nc", greens[0], "synth", "tread", "b4",
+                                 [1e-3, 0.0], solver, only, grooves_nc=greens[1])
+    contacts.append(only)
     run = io.read_dataset(contacts[1])
     grooved = run["grooved"].values.astype(bool)
     assert grooved.sum() == 12 * 9 - 10 * 7  # origin 1 mm, period 5 x 4: columns 3, 8 and rows 3, 7 are grooves
@@ -253,7 +257,12 @@ def test_pattern_stages_end_to_end(tmp_path):
     assert float(run["residual"].max()) <= 1e-12
     pipeline.run_pattern_study(contacts, greens, cfg["study"], cfg["solver"]["d_max"], tmp_path / "study.nc")
     study = io.read_dataset(tmp_path / "study.nc")
-    assert list(study["case"].values) == ["tread/slick", "tread/b4"]
+    assert list(study["case"].values) == ["tread/slick", "tread/b4", "tread/b4/grooves-only"]
+    grooves_only = io.read_dataset(only)
+    np.testing.assert_array_equal(grooves_only["grooved"].values, run["grooved"].values)
+    assert np.all(grooves_only["element_force"].values[:, grooved] == 0.0)
+    # the same springs on the slick layer: the coupling between blocks is kept, so the forces differ from the pattern's
+    assert not np.allclose(grooves_only["force"].values[1:], run["force"].values[1:], rtol=1e-6)
     from tyreroad.study import StudySettings, native_samples, case_on_grid, saturated_stiffness
 
     settings = StudySettings.from_config(dict(cfg["study"], surface="synth"), cfg["solver"]["d_max"])
@@ -262,6 +271,7 @@ def test_pattern_stages_end_to_end(tmp_path):
     assert float(study["saturated_stiffness"][1]) == k_sat
     k = study["saturated_stiffness"].values
     assert float(study["slick_change"][1]) == pytest.approx(k[1] / k[0] - 1, rel=1e-12) and k[1] < k[0]
+    assert float(study["slick_change"][2]) == pytest.approx(k[2] / k[0] - 1, rel=1e-12) and k[2] < k[0]
     assert int(study["influence_bytes"][1]) == 8 * 12**2
     pipeline.run_pattern_report(tmp_path / "study.nc", tmp_path / "pattern.md")
     text = (tmp_path / "pattern.md").read_text()
@@ -281,7 +291,8 @@ def test_pattern_target_plans_greens_runs_study_and_report(tmp_path):
                            "config/config.yaml", "config/test.yaml"], cwd=wd, capture_output=True, text=True)
     out = proc.stdout + proc.stderr
     assert proc.returncode == 0, out[-3000:]
-    for rule, n in [("pattern_greens", 3), ("pattern_contact", 3), ("pattern_study", 1), ("pattern_report", 1)]:
+    for rule, n in [("pattern_greens", 3), ("pattern_contact", 3), ("pattern_grooves_only", 2), ("pattern_study", 1),
+                    ("pattern_report", 1)]:
         assert any(line.split() == [rule, str(n)] for line in out.splitlines()), (rule, out[-2000:])
     assert "results-test/greens/pattern/block40/tread.nc" in out
     proc = subprocess.run([sys.executable, "-m", "snakemake", "-n", "-j1", "--configfile", "config/config.yaml",

@@ -33,7 +33,7 @@ __all__ = ["CLUSTER_RULES", "job_resources", "run_steps", "rolling_pass_steps", 
 CLUSTER_RULES = ("prepare_surface", "element_springs", "greens", "contact", "loading_run", "stiffness_spectrum",
                  "rolling_greens", "rolling_run", "sensitivity_point", "construction_greens", "construction_contact",
                  "belt_greens", "belt_contact", "belt_stiffness_spectrum", "belt_rolling_greens", "belt_rolling_run",
-                 "pattern_greens", "pattern_contact")
+                 "pattern_greens", "pattern_contact", "pattern_grooves_only")
 #: Rules that request what another rule of the same work does (the study's comparison constructions, the belt
 #: study and rolling; a belt greens job also fits the belt's model, 10-25 s on the default patch, within the greens
 #: stage's runtime request)
@@ -161,7 +161,7 @@ def _pattern_job(rule: str, config: Mapping[str, Any], wildcards: Mapping[str, A
     nx, ny = _elements(config, surface)
     c = float(config["surfaces"][surface].get("element_size", 1.0e-3))
     preset = (section.get("presets") or {}).get(wildcards.get("pattern"))
-    if preset is None:  # slick
+    if preset is None or rule == "pattern_grooves_only":  # the slick layer
         n_table, n_offsets, blocks = (2 * nx - 1) * (2 * ny - 1), nx * ny, 1
         n_block = nx * ny
     else:
@@ -265,7 +265,7 @@ def job_resources(rule: str, config: Mapping[str, Any], wildcards: Mapping[str, 
         nx, ny = _elements(config, config["study"]["surface"])
         m = nx * ny
         mem, seconds = _BASE_MB + 0.4 * m, 0.06 * m
-    elif rule in ("pattern_greens", "pattern_contact"):
+    elif rule in ("pattern_greens", "pattern_contact", "pattern_grooves_only"):
         mem, seconds = _pattern_job(rule, config, wildcards)
     elif rule in ("greens", "rolling_greens"):
         kernel = _kernel_mb(config, rolling=rule == "rolling_greens")

@@ -521,11 +521,16 @@ def kernel_from_pattern_greens(greens: xr.Dataset, shape, origin=(0.0, 0.0)) -> 
 # Runs and the study
 # --------------------------------------------------------------------------------------------
 def solve_pattern_run(surface: xr.Dataset, springs: xr.Dataset, greens: xr.Dataset, settings,
-                      origin=(0.0, 0.0), threads: int = 1):
+                      origin=(0.0, 0.0), threads: int = 1, grooves: xr.Dataset | None = None):
     """A quasi-static indentation run on a patterned (or, for a slick greens file, the slick) tread.
 
     The uniform indentation grid of ``settings.quasistatic_step`` up to ``settings.d_max`` as the study's
     quasi-static runs (:func:`tyreroad.contact.solve_run`); the grooved elements' springs are inactive.
+
+    ``grooves`` (a pattern greens dataset) with the slick greens file: the **grooves-only** run, the slick layer
+    (full coupling between all elements) with the springs over that pattern's grooves inactive. Beside the
+    pattern run it splits the change against slick into the elements the grooves remove and what the block
+    influence changes (the cut coupling between blocks; with the FE tables, the blocks' edges too).
 
     Returns
     -------
@@ -544,7 +549,12 @@ def solve_pattern_run(surface: xr.Dataset, springs: xr.Dataset, greens: xr.Datas
     kernel.check_element_size(surface.attrs.get("element_size"))
     table = SpringTable.from_dataset(springs)
     table = SpringTable.checked(table.stiffness, table.force, table.zeta_step, z1.size)
-    grooved = kernel.layout.grooved if isinstance(kernel, PatternKernel) else np.zeros(z1.shape, dtype=bool)
+    if grooves is not None:
+        if isinstance(kernel, PatternKernel):
+            raise ValueError("grooves: a grooves-only run is on the slick layer; expected the slick greens file")
+        grooved = kernel_from_pattern_greens(grooves, z1.shape, origin).layout.grooved
+    else:
+        grooved = kernel.layout.grooved if isinstance(kernel, PatternKernel) else np.zeros(z1.shape, dtype=bool)
     if grooved.any():
         table = groove_springs(table, grooved)
     from .loading import uniform_indentation_grid
@@ -559,15 +569,16 @@ def solve_pattern_run(surface: xr.Dataset, springs: xr.Dataset, greens: xr.Datas
 
 
 def pattern_contact_dataset(result, grooved, elapsed: float, surface_name: str, material_name: str,
-                            pattern_name: str, solver_path: str) -> xr.Dataset:
+                            pattern_name: str, solver_path: str, variant: str = "") -> xr.Dataset:
     """The contact file of a pattern run: the study's contact dataset plus the ``grooved`` mask, the pattern's
-    name and the run's wall time."""
+    name, the ``variant`` ('' or 'grooves-only', :func:`solve_pattern_run`) and the run's wall time."""
     from .contact import contact_dataset
 
     ds = contact_dataset(result, "quasistatic", 0.0, surface_name, material_name)
     ds["grooved"] = (("ex", "ey"), np.asarray(grooved, dtype=np.int8),
                      {"units": "1", "long_name": "element over a groove (1: never in contact, spring inactive)"})
-    ds.attrs.update({"pattern": pattern_name, "run_time_s": float(elapsed), "solver_path": solver_path})
+    ds.attrs.update({"pattern": pattern_name, "variant": variant, "run_time_s": float(elapsed),
+                     "solver_path": solver_path})
     return ds
 
 
@@ -590,7 +601,7 @@ def pattern_study(contacts: Sequence[xr.Dataset], greens: Sequence[xr.Dataset], 
     Returns
     -------
     xarray.Dataset
-        Dim ``case`` (``<material>/<pattern>``) and ``indentation``: ``force``, ``stiffness``,
+        Dim ``case`` (``<material>/<pattern>``, ``<material>/<pattern>/grooves-only``) and ``indentation``: ``force``, ``stiffness``,
         ``contact_fraction``, ``saturated_stiffness``, ``slick_change`` (K_sat / K_sat(slick) - 1),
         ``grooved_fraction``, ``influence_bytes``, ``dense_patch_bytes``, ``greens_time``, ``contact_time``.
     """
@@ -602,21 +613,23 @@ def pattern_study(contacts: Sequence[xr.Dataset], greens: Sequence[xr.Dataset], 
     rows = []
     for i, ds in enumerate(contacts):
         material, pattern = str(ds.attrs["material"]), str(ds.attrs["pattern"])
+        variant = str(ds.attrs.get("variant", ""))
         settings = dataclasses.replace(study_settings, surface=str(ds.attrs["surface"]))
         src = str(ds.encoding.get("source", f"pattern contact #{i}"))
         run = native_samples(ds, src, settings)
         grid = case_on_grid(run, settings)
-        if (material, pattern) not in greens_of:
-            raise ValueError(f"{src}: no pattern greens file for material {material!r}, pattern {pattern!r}")
-        g = greens_of[(material, pattern)]
+        table = SLICK if variant else pattern  # a grooves-only run is on the slick layer's table
+        if (material, table) not in greens_of:
+            raise ValueError(f"{src}: no pattern greens file for material {material!r}, pattern {table!r}")
+        g = greens_of[(material, table)]
         n_el = int(ds.sizes["ex"] * ds.sizes["ey"])
-        rows.append({"material": material, "pattern": pattern, "grid": grid,
+        rows.append({"material": material, "pattern": pattern, "variant": variant, "grid": grid,
                      "k_sat": saturated_stiffness(settings.grid, grid["stiffness"], settings.saturation_range),
                      "grooved": float(ds["grooved"].mean()) if "grooved" in ds else 0.0,
                      "bytes": int(g.attrs["influence_bytes"]), "dense": 8 * n_el * n_el,
                      "greens_time": float(g.attrs["compute_time_s"]), "contact_time": float(ds.attrs["run_time_s"]),
                      "path": str(ds.attrs.get("solver_path", ""))})
-    slick = {r["material"]: r["k_sat"] for r in rows if r["pattern"] == SLICK}
+    slick = {r["material"]: r["k_sat"] for r in rows if r["pattern"] == SLICK and not r["variant"]}
     missing = sorted({r["material"] for r in rows} - set(slick))
     if missing:
         raise ValueError(f"pattern study: no slick run for material(s) {missing}")
@@ -647,8 +660,10 @@ def pattern_study(contacts: Sequence[xr.Dataset], greens: Sequence[xr.Dataset], 
                             "wall time of the quasi-static contact march"),
     }
     coords = {
-        "case": ("case", [f"{r['material']}/{r['pattern']}" for r in rows], {"units": "1",
-                 "long_name": "case label material/pattern"}),
+        "case": ("case", ["/".join(filter(None, (r["material"], r["pattern"], r["variant"]))) for r in rows],
+                 {"units": "1", "long_name": "case label material/pattern[/variant]"}),
+        "variant": ("case", [r["variant"] for r in rows], {"units": "1", "long_name": "run variant ('' or "
+                    "grooves-only: the slick layer with the pattern's grooved springs inactive)"}),
         "material": ("case", [r["material"] for r in rows], {"units": "1", "long_name": "tread material preset"}),
         "pattern": ("case", [r["pattern"] for r in rows], {"units": "1", "long_name": "pattern preset (slick: none)"}),
         "solver_path": ("case", [r["path"] for r in rows], {"units": "1", "long_name": "substrate of the contact run"}),

@@ -957,21 +957,27 @@ def run_pattern_contact(
     solver_cfg: Mapping[str, Any],
     out_nc: str | Path,
     threads: int = 1,
+    grooves_nc: str | Path | None = None,
 ) -> None:
     """Stage ``pattern_contact``: one quasi-static run on a patterned (or the slick) tread, grooved elements out
-    of contact (:func:`tyreroad.pattern.solve_pattern_run`)."""
+    of contact (:func:`tyreroad.pattern.solve_pattern_run`); with ``grooves_nc`` (the pattern's greens file, and
+    the slick one as ``greens_nc``) the grooves-only run of that pattern."""
     from .contact import SolverSettings
     from .pattern import pattern_contact_dataset, solve_pattern_run
 
     settings = SolverSettings.from_config(solver_cfg)
     surface, springs, greens = io.read_dataset(surface_nc), io.read_dataset(springs_nc, SPRING_TABLES), \
         io.read_dataset(greens_nc)
-    result, grooved, elapsed = solve_pattern_run(surface, springs, greens, settings, tuple(patch_origin), threads)
+    grooves = None if grooves_nc is None else io.read_dataset(grooves_nc)
+    result, grooved, elapsed = solve_pattern_run(surface, springs, greens, settings, tuple(patch_origin), threads,
+                                                 grooves)
     shape = grooved.shape
     path = ("pattern: block-diagonal dense" if str(greens.attrs.get("kind")) == "pattern"
             else f"slick: {settings.resolved_method(shape[0] * shape[1])}")
-    ds = pattern_contact_dataset(result, grooved, elapsed, surface_name, material_name, pattern_name, path)
-    provenance = {"solver": dict(solver_cfg), "patch_origin": list(patch_origin), "pattern": pattern_name}
+    ds = pattern_contact_dataset(result, grooved, elapsed, surface_name, material_name, pattern_name, path,
+                                 "" if grooves is None else "grooves-only")
+    provenance = {"solver": dict(solver_cfg), "patch_origin": list(patch_origin), "pattern": pattern_name,
+                  "grooves_only": grooves is not None}
     io.write_dataset(ds, out_nc, provenance, stage="pattern_contact", surface=surface_name, material=material_name)
 
 

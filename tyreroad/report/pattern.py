@@ -62,6 +62,7 @@ def pattern_section(ds: xr.Dataset) -> list[str]:
     cases = [str(c) for c in ds["case"].values]
     materials = [str(m) for m in ds["material"].values]
     patterns = [str(p) for p in ds["pattern"].values]
+    variants = [str(v) for v in ds["variant"].values] if "variant" in ds.coords else [""] * len(cases)
     sat = tuple(1e3 * float(v) for v in ds.attrs["saturation_range_m"])
     lines = [
         "## Patterned treads (issue 27)",
@@ -69,7 +70,10 @@ def pattern_section(ds: xr.Dataset) -> list[str]:
         f"Quasi-static runs on a patch placed on each tread pattern, beside the slick tread of the same patch, "
         f"surface and springs. K(d) and K_sat as in the study (tangent dF/dd, K_sat = median K over "
         f"d in [{sat[0]:g}, {sat[1]:g}] mm). Elements over a groove are never in contact (springs inactive). "
-        f"Block influence: {ds.attrs.get('influence_note', 'see the greens files')}.",
+        f"Block influence: {ds.attrs.get('influence_note', 'see the greens files')}. A grooves-only case is the "
+        f"slick layer with that pattern's grooved springs off: its change against slick is what removing the grooved "
+        f"elements does; the rest of the pattern's change comes from its block influence (the cut coupling between "
+        f"blocks, and with FE tables the blocks' edges).",
         "",
         "| case | K_sat [MN/m] | change against slick | grooved fraction | influence table [MB] | dense patch "
         "matrix [MB] | greens stage [s] | contact run [s] | substrate |",
@@ -90,9 +94,10 @@ def pattern_section(ds: xr.Dataset) -> list[str]:
         lines.append(f"| {case} | " + " | ".join(f"{1e-6 * float(np.interp(m, d, k)):.4g}" for m in marks) + " |")
     lines += ["", "Claims of the seed on the pattern (quasi-static; the report's thresholds):", ""]
     for i, case in enumerate(cases):
-        if patterns[i] == _SLICK:
+        if patterns[i] == _SLICK or variants[i]:
             continue
-        slick = next(j for j in range(len(cases)) if materials[j] == materials[i] and patterns[j] == _SLICK)
+        slick = next(j for j in range(len(cases))
+                     if materials[j] == materials[i] and patterns[j] == _SLICK and not variants[j])
         lines.append(f"- {case}:")
         lines += [f"  - {c}" for c in _claims(ds, i, slick)]
     lines += ["", "Memory: a pattern stores one N x N block table (N = the block's elements) for every block of the "

@@ -405,7 +405,10 @@ def pattern_cases():
 
 
 def pattern_runs():
-    return [f"{R}/pattern/contact/{PATTERN_SURFACE}/{m}/{p}/quasistatic_0.nc" for m, p in pattern_cases()]
+    """Every pattern case's run, and per pattern preset the grooves-only run (slick layer, grooved springs off)."""
+    runs = [f"{R}/pattern/contact/{PATTERN_SURFACE}/{m}/{p}/quasistatic_0.nc" for m, p in pattern_cases()]
+    return runs + [f"{R}/pattern/contact/{PATTERN_SURFACE}/{m}/{p}/grooves-only_0.nc" for m, p in pattern_cases()
+                   if p != "slick"]
 
 
 def pattern_greens_files():

@@ -49,6 +49,31 @@ rule pattern_contact:
         "../scripts/pattern_contact.py"
 
 
+rule pattern_grooves_only:  # the slick layer with the pattern's grooved springs off: what the grooves alone change
+    input:
+        surface=f"{R}/surface/{{surface}}.nc",
+        springs=f"{R}/springs/{{surface}}/{{material}}.nc",
+        greens=f"{R}/greens/pattern/slick/{{material}}.nc",
+        grooves=f"{R}/greens/pattern/{{pattern}}/{{material}}.nc",
+    output:
+        nc=f"{R}/pattern/contact/{{surface}}/{{material}}/{{pattern}}/grooves-only_0.nc",
+    log:
+        f"{R}/logs/pattern/contact/{{surface}}/{{material}}/{{pattern}}/grooves-only_0.log",
+    benchmark:
+        f"{R}/benchmarks/pattern/contact/{{surface}}/{{material}}/{{pattern}}/grooves-only_0.tsv"
+    params:
+        check=pattern_preset,
+        origin=PATTERN.get("patch_origin", [0.0, 0.0]),
+        solver=config["solver"],
+        code=SOURCE["pattern_contact"],
+    threads: 1
+    resources:
+        mem_mb=lambda w, attempt: cluster_resources("pattern_grooves_only", config, w, attempt)["mem_mb"],
+        runtime=lambda w, attempt: cluster_resources("pattern_grooves_only", config, w, attempt)["runtime"],
+    script:
+        "../scripts/pattern_contact.py"
+
+
 rule pattern_study:
     input:
         runs=pattern_runs(),

@@ -18,4 +18,5 @@ pipeline.run_pattern_contact(
     solver_cfg=snakemake.params.solver,
     out_nc=snakemake.output.nc,
     threads=snakemake.threads,
+    grooves_nc=snakemake.input.get("grooves"),
 )
