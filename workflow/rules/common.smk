@@ -377,7 +377,7 @@ def construction_greens():
 PATTERN = config.get("pattern", {}) or {}
 PATTERN_STUDY = bool(PATTERN.get("study", False))
 PATTERN_SURFACE = PATTERN.get("surface")
-# the pattern's patch has its own static tables (rule pattern_greens): it does not size the study's greens files
+# the pattern's patch has its own static tables (pattern_greens jobs), so it does not size the study's greens files
 PATTERN_OWN_SURFACES = {PATTERN_SURFACE} - set(ROLLING_SURFACES) - {STUDY_SURFACE} if PATTERN.get("presets") else set()
 
 
