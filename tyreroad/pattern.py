@@ -365,7 +365,8 @@ class PatternSubstrate:
     """The contact solver's substrate (:mod:`tyreroad.newton`) on a block-diagonal G_0.
 
     The Newton correction (I + G_0 diag(k)) delta = -r decouples by block: on each block's loaded set A,
-    (I + G_AA K_A) delta_A = -r_A (LU), then delta_I = -r_I - G_IA K_A delta_A for the block's other
+    (I + G_AA K_A) delta_A = -r_A (for a symmetric G_b in the symmetric positive definite form
+    (I + S G_AA S) S delta_A = -S r_A, S = K_A^(1/2), by Cholesky; LU otherwise), then delta_I = -r_I - G_IA K_A delta_A for the block's other
     elements; grooved elements (never loaded) keep delta = -r. Cost per correction: the sum of the blocks'
     (N_A)^3 instead of (sum N_A)^3.
 
@@ -396,10 +397,18 @@ class PatternSubstrate:
             if act.size == 0:
                 continue
             ka = kb[act]
-            a = gb[np.ix_(act, act)] * ka[None, :]
-            a[np.diag_indices_from(a)] += 1.0
+            s = np.sqrt(ka) if np.all(ka > 0) else None
             try:
-                da = scipy.linalg.solve(a, delta[idx[act]], check_finite=False)
+                if s is not None and self.influence.even:
+                    # symmetric form: (I + S G S) (S delta) = S rhs, S = diag(sqrt(k)) -- Cholesky, half an LU
+                    a = gb[np.ix_(act, act)] * s[:, None]
+                    a *= s[None, :]
+                    a[np.diag_indices_from(a)] += 1.0
+                    da = scipy.linalg.solve(a, s * delta[idx[act]], assume_a="pos", check_finite=False) / s
+                else:
+                    a = gb[np.ix_(act, act)] * ka[None, :]
+                    a[np.diag_indices_from(a)] += 1.0
+                    da = scipy.linalg.solve(a, delta[idx[act]], check_finite=False)
             except scipy.linalg.LinAlgError:
                 raise StepConvergenceError("Newton Jacobian I + G0 diag(k) is singular on a tread block", float("nan"),
                                            0) from None
