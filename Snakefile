@@ -20,6 +20,7 @@ include: "workflow/rules/sensitivity.smk"
 include: "workflow/rules/stiffness.smk"
 include: "workflow/rules/rolling.smk"
 include: "workflow/rules/belt_rolling.smk"
+include: "workflow/rules/pattern.smk"
 
 
 rule all:

@@ -216,7 +216,8 @@ def _check_study_through_slurm(slurm_cluster, tmp_path, local, proc):
     # study is off in config/test.yaml: its rules are tested in tests/test_belt_stage.py)
     assert set(expected_jobs) == set(CLUSTER_RULES) - {"rolling_greens", "rolling_run", "sensitivity_point",
                                                        "belt_greens", "belt_contact", "belt_stiffness_spectrum",
-                                                       "belt_rolling_greens", "belt_rolling_run"}, \
+                                                       "belt_rolling_greens", "belt_rolling_run",
+                                                       "pattern_greens", "pattern_contact", "pattern_grooves_only"}, \
         expected_jobs
 
     cluster = _copy_workflow(tmp_path / "cluster")

@@ -32,7 +32,8 @@ __all__ = ["CLUSTER_RULES", "job_resources", "run_steps", "rolling_pass_steps", 
 #: Rules that run as cluster jobs (the others are ``localrules``).
 CLUSTER_RULES = ("prepare_surface", "element_springs", "greens", "contact", "loading_run", "stiffness_spectrum",
                  "rolling_greens", "rolling_run", "sensitivity_point", "construction_greens", "construction_contact",
-                 "belt_greens", "belt_contact", "belt_stiffness_spectrum", "belt_rolling_greens", "belt_rolling_run")
+                 "belt_greens", "belt_contact", "belt_stiffness_spectrum", "belt_rolling_greens", "belt_rolling_run",
+                 "pattern_greens", "pattern_contact", "pattern_grooves_only")
 #: Rules that request what another rule of the same work does (the study's comparison constructions, the belt
 #: study and rolling; a belt greens job also fits the belt's model, 10-25 s on the default patch, within the greens
 #: stage's runtime request)
@@ -140,9 +141,45 @@ def _greens_elements(config: Mapping[str, Any], rolling: bool = False) -> tuple[
     """The Green's tables cover the largest configured patch (see the workflow's max_patch_elements);
     the rolling strips (rolling.surfaces) have their own Green's functions (``rolling=True``)."""
     strips = set(config["rolling"]["surfaces"]) if "rolling" in config else set()
-    sizes = [_elements(config, name) for name in config["surfaces"] if (name in strips) == rolling] or [
+    # the pattern study's patch (pattern.surface) has its own static tables (tyreroad.pattern), not the study's greens
+    own = {(config.get("pattern") or {}).get("surface")} - strips
+    sizes = [_elements(config, name) for name in config["surfaces"]
+             if (name in strips) == rolling and name not in own] or [
         _elements(config, name) for name in config["surfaces"]]
     return max(s[0] for s in sizes), max(s[1] for s in sizes)
+
+
+def _pattern_job(rule: str, config: Mapping[str, Any], wildcards: Mapping[str, Any]) -> tuple[float, float]:
+    """(MB, s) of a pattern stage job (tyreroad.pattern): the block table N x N of the pattern (the slick
+    tread: its offset table and the study's quasi-static model of a contact run on the patch).
+
+    Static tables: the analytic stand-in costs ~1 ms per unique offset (measured: docs/pattern.md). A pattern
+    run factorises each block's loaded set: B N^3 per Newton correction, ~4 corrections and a tangent per state.
+    """
+    section = config.get("pattern") or {}
+    surface = section.get("surface") or config["study"]["surface"]
+    nx, ny = _elements(config, surface)
+    c = float(config["surfaces"][surface].get("element_size", 1.0e-3))
+    preset = (section.get("presets") or {}).get(wildcards.get("pattern"))
+    if preset is None or rule == "pattern_grooves_only":  # the slick layer
+        n_table, n_offsets, blocks = (2 * nx - 1) * (2 * ny - 1), nx * ny, 1
+        n_block = nx * ny
+    else:
+        bx, by = round(float(preset["block_length"]) / c), round(float(preset["block_width"]) / c)
+        gw = round(float(preset["groove_width"]) / c)
+        n_block = bx * by
+        n_table, n_offsets = n_block * n_block, bx * by
+        blocks = math.ceil(nx / (bx + gw)) * math.ceil(ny / (by + gw)) + 2
+    table_mb = 8 * n_table / 1e6
+    if rule == "pattern_greens":
+        return _BASE_MB + 3 * table_mb, 10 + 2e-3 * n_offsets
+    steps = uniform_grid_steps(float(config["solver"]["d_max"]), float(config["solver"]["quasistatic_step"]))
+    output = steps * nx * ny * 8 * 6 / 1e6
+    if preset is None and solver_path(config, nx * ny, steps, False) == "fft":
+        seconds = steps * 2e-5 * nx * ny * 5
+    else:
+        seconds = steps * (5 * blocks * 1.2e-10 * n_block**3 + 1e-3)
+    return _BASE_MB + 4 * table_mb + 3 * output, seconds
 
 
 def _kernel_mb(config: Mapping[str, Any], rolling: bool = False) -> float:
@@ -228,6 +265,8 @@ def job_resources(rule: str, config: Mapping[str, Any], wildcards: Mapping[str, 
         nx, ny = _elements(config, config["study"]["surface"])
         m = nx * ny
         mem, seconds = _BASE_MB + 0.4 * m, 0.06 * m
+    elif rule in ("pattern_greens", "pattern_contact", "pattern_grooves_only"):
+        mem, seconds = _pattern_job(rule, config, wildcards)
     elif rule in ("greens", "rolling_greens"):
         kernel = _kernel_mb(config, rolling=rule == "rolling_greens")
         n_fft_scale = int(config["greens"]["n_fft"]) / 4096

@@ -192,8 +192,8 @@ def config_file_order(configfiles: Iterable[str | Path], overwrite_configfiles: 
 
 
 #: Top-level keys of the config (the schema's sections): an error paragraph that starts with one names a key.
-_SECTIONS = ("results_dir", "surfaces", "materials", "springs", "spring_comparison", "belt", "greens", "solver",
-             "loadings", "study", "stiffness_spectrum", "sensitivity", "rolling")
+_SECTIONS = ("results_dir", "surfaces", "materials", "springs", "spring_comparison", "belt", "pattern", "greens",
+             "solver", "loadings", "study", "stiffness_spectrum", "sensitivity", "rolling")
 
 #: The key path an error paragraph starts with (``greens.n_fft``, ``study.accelerations[1]``, ...).
 _LEADING_KEY = re.compile(r"^([A-Za-z_][A-Za-z0-9_.\-]*(?:\[\d+\][A-Za-z0-9_.\-]*)*)(?= = |: |\b)")
@@ -413,7 +413,7 @@ def _fail(key: str, value: Any, expected: str) -> ConfigError:
 def _wrap(exc: Exception, key: str) -> ConfigError:
     """A package ValueError as a ConfigError; prefix the key path unless the message names one."""
     msg = str(exc).strip("'\"")
-    if re.match(r"^(surfaces|materials|springs|greens|solver|study|results_dir|rolling|loadings|sensitivity|stiffness_spectrum)\b", msg) or msg.startswith("/"):
+    if re.match(r"^(surfaces|materials|springs|greens|solver|study|results_dir|rolling|loadings|sensitivity|stiffness_spectrum|pattern)\b", msg) or msg.startswith("/"):
         return ConfigError(msg)
     return ConfigError(f"{key}: {msg}")
 
@@ -669,6 +669,19 @@ def _check_belt(config: Mapping[str, Any]) -> None:
                           "memory; use greens.construction: passive (or fold, seed) for the belt study")
 
 
+def _check_pattern(config: Mapping[str, Any]) -> None:
+    """The pattern section (issue 27; :func:`tyreroad.pattern.check_pattern_config`): geometry on the element
+    grid, grooves no deeper than the tread, a patch holding a whole block, a static (quasi-static) study."""
+    if not config.get("pattern"):
+        return
+    from .pattern import check_pattern_config
+
+    try:
+        check_pattern_config(config)
+    except (ValueError, TypeError, KeyError) as exc:
+        raise _wrap(exc, "pattern") from None
+
+
 def _check_hard_contact(config: Mapping[str, Any]) -> None:
     """Hard contact (springs.model: hard) in the study's dynamic runs needs the stage kernel (greens.construction:
     radau): its penalty springs (1e10 N/m by default) are far past every single-stage kernel's stability limit
@@ -848,6 +861,7 @@ def check_config(config: Mapping[str, Any], base_dir: str | Path = ".") -> None:
     _check_package_settings(config)
     _check_hard_contact(config)
     _check_belt(config)
+    _check_pattern(config)
     for name, spec in config["surfaces"].items():
         surface_plan(name, spec, base_dir)
     _check_rolling(config)

@@ -38,6 +38,10 @@ __all__ = [
     "run_stiffness_spectrum",
     "run_stiffness_figure",
     "run_stiffness_combined",
+    "run_pattern_greens",
+    "run_pattern_contact",
+    "run_pattern_study",
+    "run_pattern_report",
 ]
 
 
@@ -449,6 +453,7 @@ def run_report(
     claim6_nc: str | Path | None = None,
     figure_pngs: Sequence[str | Path] = (),
     belt_ncs: Sequence[str | Path] = (),
+    pattern_nc: str | Path | None = None,
 ) -> None:
     """``results/report.md``: the seed's claims checked against the measured numbers; given the
     stiffness-spectrum files, the section on K*(f; d0); given ``loading_nc`` (results/loading.nc),
@@ -458,7 +463,9 @@ def run_report(
     ``spring_comparison`` (config key, issue 24), the section comparing this study with the
     elastic-springs study in ``spring_comparison['elastic_results']``. The figures ``figure_pngs``
     are embedded with their captions, linked relative to the report. ``belt_ncs``: the study repeated on a
-    flexible belt (results/belt/study.nc, its greens files and stiffness spectra, by folder), set beside this one."""
+    flexible belt (results/belt/study.nc, its greens files and stiffness spectra, by folder), set beside this one.
+    ``pattern_nc``: the pattern study (results/pattern/study.nc, issue 27; with pattern.study), its section
+    appended (:func:`tyreroad.report.pattern.pattern_section`)."""
     import os
 
     from .report import build_report, write_report
@@ -486,6 +493,10 @@ def run_report(
         lines = spring_comparison_section(study, [io.read_dataset(p) for p in spectra_ncs], settings, variants,
                                           Path(out_md).parent, spring_comparison["elastic_results"])
         text = text.rstrip("\n") + "\n\n" + "\n".join(lines).rstrip("\n") + "\n"
+    if pattern_nc is not None:
+        from .report.pattern import pattern_section
+
+        text = text.rstrip("\n") + "\n\n" + "\n".join(pattern_section(io.read_dataset(pattern_nc))).rstrip("\n") + "\n"
     write_report(text, out_md)
 
 
@@ -902,3 +913,90 @@ def run_rolling_report(rolling_nc: str | Path, out_md: str | Path, figure_pngs: 
             logger.warning("rolling report: %s is missing; the spring comparison says so", path)
     write_report(build_rolling_report(io.read_dataset(rolling_nc), figures=figures, reference=reference,
                                       reference_label=label), out_md)
+
+
+# ----------------------------------------------------------------------------------------------
+# Patterned treads (issue 27; tyreroad.pattern, workflow/rules/pattern.smk)
+# ----------------------------------------------------------------------------------------------
+def run_pattern_greens(
+    pattern_name: str,
+    pattern_cfg: Mapping[str, Any] | None,
+    influence: str,
+    material_name: str,
+    material_cfg: Mapping[str, Any],
+    element_size: float,
+    patch_elements: Sequence[int],
+    out_nc: str | Path,
+) -> None:
+    """Stage ``pattern_greens``: the block influence table of a pattern preset (``pattern_cfg``), or, for
+    ``pattern_name = 'slick'`` (``pattern_cfg`` None), the flat layer's static offset table over the patch
+    (``patch_elements``), with its memory and compute time."""
+    from .pattern import PatternGeometry
+    from .pattern_stage import pattern_greens_dataset, slick_greens_dataset
+
+    material = _material(material_name, material_cfg)
+    if pattern_cfg is None:
+        ds = slick_greens_dataset(tuple(patch_elements), float(element_size), material)
+    else:
+        ds = pattern_greens_dataset(PatternGeometry.from_config(pattern_name, pattern_cfg, float(element_size)),
+                                    material, influence)
+    provenance = {"pattern": {pattern_name: None if pattern_cfg is None else dict(pattern_cfg)},
+                  "influence": influence, "material": {material_name: dict(material.config)},
+                  "element_size": float(element_size), "patch_elements": list(patch_elements)}
+    io.write_dataset(ds, out_nc, provenance, stage="pattern_greens", material=material_name)
+
+
+def run_pattern_contact(
+    surface_nc: str | Path,
+    springs_nc: str | Path,
+    greens_nc: str | Path,
+    surface_name: str,
+    material_name: str,
+    pattern_name: str,
+    patch_origin: Sequence[float],
+    solver_cfg: Mapping[str, Any],
+    out_nc: str | Path,
+    threads: int = 1,
+    grooves_nc: str | Path | None = None,
+) -> None:
+    """Stage ``pattern_contact``: one quasi-static run on a patterned (or the slick) tread, grooved elements out
+    of contact (:func:`tyreroad.pattern.solve_pattern_run`); with ``grooves_nc`` (the pattern's greens file, and
+    the slick one as ``greens_nc``) the grooves-only run of that pattern."""
+    from .contact import SolverSettings
+    from .pattern import pattern_contact_dataset, solve_pattern_run
+
+    settings = SolverSettings.from_config(solver_cfg)
+    surface, springs, greens = io.read_dataset(surface_nc), io.read_dataset(springs_nc, SPRING_TABLES), \
+        io.read_dataset(greens_nc)
+    grooves = None if grooves_nc is None else io.read_dataset(grooves_nc)
+    result, grooved, elapsed = solve_pattern_run(surface, springs, greens, settings, tuple(patch_origin), threads,
+                                                 grooves)
+    shape = grooved.shape
+    path = ("pattern: block-diagonal dense" if str(greens.attrs.get("kind")) == "pattern"
+            else f"slick: {settings.resolved_method(shape[0] * shape[1])}")
+    ds = pattern_contact_dataset(result, grooved, elapsed, surface_name, material_name, pattern_name, path,
+                                 "" if grooves is None else "grooves-only")
+    provenance = {"solver": dict(solver_cfg), "patch_origin": list(patch_origin), "pattern": pattern_name,
+                  "grooves_only": grooves is not None}
+    io.write_dataset(ds, out_nc, provenance, stage="pattern_contact", surface=surface_name, material=material_name)
+
+
+def run_pattern_study(
+    contact_ncs: Sequence[str | Path], greens_ncs: Sequence[str | Path], study_cfg: Mapping[str, Any], d_max: float,
+    out_nc: str | Path,
+) -> None:
+    """Stage ``pattern_study``: K(d), K_sat per pattern beside the slick tread's (the study's definitions), the
+    grooved fraction, the influence tables' memory and the stage times (:func:`tyreroad.pattern.pattern_study`)."""
+    from .pattern import pattern_study
+    from .study import StudySettings
+
+    settings = StudySettings.from_config(study_cfg, d_max=d_max)
+    ds = pattern_study([io.read_dataset(p) for p in contact_ncs], [io.read_dataset(p) for p in greens_ncs], settings)
+    io.write_dataset(ds, out_nc, {"study": dict(study_cfg), "d_max": d_max}, stage="pattern_study")
+
+
+def run_pattern_report(study_nc: str | Path, out_md: str | Path) -> None:
+    """Stage ``pattern_report``: the pattern study's section as ``pattern.md``."""
+    from .report.pattern import write_pattern_report
+
+    write_pattern_report(io.read_dataset(study_nc), out_md, source=str(study_nc))

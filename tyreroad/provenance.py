@@ -49,6 +49,10 @@ STAGE_MODULES: dict[str, tuple[str, ...]] = {
     "rolling_study": ("log", "pipeline", "rolling"),
     "rolling_figures": ("log", "pipeline", "plots.rolling"),
     "rolling_report": ("log", "pipeline", "report"),
+    "pattern_greens": ("log", "pipeline", "pattern", "pattern_stage", "material"),
+    "pattern_contact": ("log", "pipeline", "pattern", "contact"),
+    "pattern_study": ("log", "pipeline", "pattern", "study"),
+    "pattern_report": ("log", "pipeline", "report.pattern"),
 }
 
 _PACKAGE_DIR = Path(__file__).resolve().parent

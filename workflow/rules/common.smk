@@ -9,6 +9,7 @@ min_version("8.10")
 
 from tyreroad.cluster import job_resources as cluster_resources
 from tyreroad.config import (
+    ConfigError,
     check_config,
     check_config_files,
     check_job,
@@ -24,6 +25,7 @@ from tyreroad.pipeline import material_compounds as _material_compounds
 from tyreroad.pipeline import material_variants as _material_variants
 from tyreroad.pipeline import resolved_material_config as _resolved_material_config
 from tyreroad.pipeline import spring_material_inputs as _spring_material_inputs
+from tyreroad.pattern import check_pattern_springs as _check_pattern_springs
 from tyreroad.provenance import STAGE_MODULES, source_hash
 
 SCHEMA = Path(workflow.current_basedir) / "../schemas/config.schema.yaml"
@@ -45,6 +47,7 @@ wildcard_constraints:
     accel=r"[0-9][0-9.e+\-]*",
     loading=r"[A-Za-z0-9][A-Za-z0-9.\-]*",
     speed=r"[0-9][0-9.e+\-]*",
+    pattern=r"[A-Za-z0-9][A-Za-z0-9.\-]*",
 
 
 # Cheap aggregation and plotting jobs run on the submitting host, never as cluster jobs. The one
@@ -61,6 +64,9 @@ localrules:
     belt_mobility,
     belt_rolling_spectra,
     belt_rolling,
+    pattern_study,
+    pattern_report,
+    pattern,
     claim6,
     report,
     loading_study,
@@ -95,6 +101,8 @@ _TARGET_OF = {
     ("loading", "material", "mode", "surface"): f"{R}/loading/{{surface}}/{{material}}/{{mode}}_{{loading}}.nc",
     ("material", "mode", "speed", "surface"): f"{R}/rolling/{{surface}}/{{material}}/{{mode}}_v{{speed}}.nc",
     ("construction", "material"): f"{R}/constructions/{{construction}}/greens/{{material}}.nc",
+    ("material", "pattern"): f"{R}/greens/pattern/{{pattern}}/{{material}}.nc",
+    ("material", "pattern", "surface"): f"{R}/pattern/contact/{{surface}}/{{material}}/{{pattern}}/quasistatic_0.nc",
     ("accel", "construction", "material", "mode", "surface"):
         f"{R}/constructions/{{construction}}/contact/{{surface}}/{{material}}/{{mode}}_{{accel}}.nc",
 }
@@ -170,7 +178,7 @@ def max_patch_elements(rolling=False):
     The rolling strips (rolling.surfaces) have their own Green's functions (rolling=True), so that
     a 150 x 20 strip does not change the study's greens files."""
     sizes = [tuple(s["patch_elements"]) for name, s in config["surfaces"].items()
-             if (name in ROLLING_SURFACES) == rolling]
+             if (name in ROLLING_SURFACES) == rolling and name not in PATTERN_OWN_SURFACES]
     return [max(s[0] for s in sizes), max(s[1] for s in sizes)]
 
 
@@ -216,6 +224,7 @@ def all_targets():
         *construction_outputs(),
         *claim6_outputs(),
         *belt_outputs(),
+        *(pattern_targets() if PATTERN_STUDY else []),
     ]
 
 
@@ -361,3 +370,52 @@ def belt_rolling_runs():
 
 def construction_greens():
     return [f"{R}/constructions/{c}/greens/{m}.nc" for c in COMPARE_CONSTRUCTIONS for m in STUDY["materials"]]
+
+
+# Patterned treads (config section `pattern`, issue 27; rules in pattern.smk, named target `pattern`): every
+# pattern.materials on every pattern preset and on the slick tread of the pattern surface's patch (quasi-static).
+PATTERN = config.get("pattern", {}) or {}
+PATTERN_STUDY = bool(PATTERN.get("study", False))
+PATTERN_SURFACE = PATTERN.get("surface")
+# the pattern's patch has its own static tables (pattern_greens jobs), so it does not size the study's greens files
+PATTERN_OWN_SURFACES = {PATTERN_SURFACE} - set(ROLLING_SURFACES) - {STUDY_SURFACE} if PATTERN.get("presets") else set()
+
+
+def pattern_surface_spec():
+    return config["surfaces"][PATTERN_SURFACE]
+
+
+def pattern_preset(wildcards):
+    """The pattern preset of a job (None for the slick tread), after checking its presets (planning time)."""
+    checked(wildcards)
+    with naming_config_files(CONFIG_FILES):
+        try:
+            _check_pattern_springs(config)
+        except ValueError as exc:
+            raise ConfigError(str(exc)) from None
+    presets = PATTERN.get("presets", {}) or {}
+    if wildcards.pattern != "slick" and wildcards.pattern not in presets:
+        raise ConfigError(f"pattern {wildcards.pattern!r} is not a preset in pattern.presets; expected one of: "
+                          f"{', '.join(['slick', *sorted(presets)])}")
+    return presets.get(wildcards.pattern)
+
+
+def pattern_cases():
+    return [(m, p) for m in PATTERN.get("materials", []) for p in ["slick", *(PATTERN.get("presets", {}) or {})]]
+
+
+def pattern_runs():
+    """Every pattern case's run, and per pattern preset the grooves-only run (slick layer, grooved springs off)."""
+    runs = [f"{R}/pattern/contact/{PATTERN_SURFACE}/{m}/{p}/quasistatic_0.nc" for m, p in pattern_cases()]
+    return runs + [f"{R}/pattern/contact/{PATTERN_SURFACE}/{m}/{p}/grooves-only_0.nc" for m, p in pattern_cases()
+                   if p != "slick"]
+
+
+def pattern_greens_files():
+    return [f"{R}/greens/pattern/{p}/{m}.nc" for m, p in pattern_cases()]
+
+
+def pattern_targets():
+    if not PATTERN.get("presets"):
+        return []
+    return [f"{R}/pattern/study.nc", f"{R}/pattern.md"]

@@ -43,6 +43,7 @@ rule report:
         construction_greens=construction_greens(),
         claim6=claim6_outputs(),
         belt=belt_outputs(),  # the study on a flexible belt (belt.study): study.nc, greens, K* of the reference
+        pattern=pattern_targets()[:1] if PATTERN_STUDY else [],  # the pattern study (pattern.study, issue 27)
         figures=report_figures(),  # embedded in report.md with their captions
     output:
         md=f"{R}/report.md",

@@ -24,4 +24,5 @@ pipeline.run_report(
     claim6_nc=snakemake.input.claim6[0] if snakemake.input.get("claim6") else None,
     figure_pngs=snakemake.input.get("figures", []),
     belt_ncs=snakemake.input.get("belt", []),
+    pattern_nc=snakemake.input.pattern[0] if snakemake.input.get("pattern") else None,
 )

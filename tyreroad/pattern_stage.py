@@ -1,0 +1,110 @@
+"""The pattern greens stage (issue 27): the block influence table of a pattern and material, and the slick
+tread's static offset table over the same patch (``results/greens/pattern/{pattern}/{material}.nc``).
+
+Kept apart from :mod:`tyreroad.pattern` so that the pattern contact runs, which read these files, do not depend
+on the greens code (a change of the element Green's functions re-runs this stage, and the runs through its
+files). The FE cell model (``tyreroad.fe_pattern.block_static_influence``, same call shape as
+:func:`standin_block_influence`) enters here at merge, selected by ``pattern.influence``.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+
+import numpy as np
+import xarray as xr
+
+from .pattern import PATTERN_INFLUENCES, SLICK, PatternGeometry
+
+logger = logging.getLogger(__name__)
+
+__all__ = ["standin_block_influence", "pattern_greens_dataset", "slick_greens_dataset"]
+
+
+def _static_offset_table(shape, element_size: float, material) -> np.ndarray:
+    """g_static[dx, dy] [m/N] of the flat layer for offsets -(nx-1) ... nx-1, -(ny-1) ... ny-1."""
+    from .greens import offset_table_index, static_element_kernel, unique_offsets
+
+    uniq = unique_offsets(shape)
+    values = static_element_kernel(uniq * element_size, element_size, material.quasi_static_modulus,
+                                   material.poisson, material.thickness)
+    _, _, index = offset_table_index(shape)
+    return values[index]
+
+
+def standin_block_influence(pattern: PatternGeometry, material) -> tuple[np.ndarray, np.ndarray]:
+    """The stand-in for ``tyreroad.fe_pattern.block_static_influence``: the flat layer's static element kernel
+    restricted to one block's elements (a block with no edge effect), same call shape and return.
+
+    Parameters
+    ----------
+    pattern : PatternGeometry
+        The pattern (its block size and element size).
+    material : tyreroad.material.Material
+        The tread (quasi-static modulus, Poisson's ratio, thickness).
+
+    Returns
+    -------
+    element_centres_xy : numpy.ndarray
+        Centres [m] of the block's N elements, row-major over x then y, shape (N, 2).
+    G : numpy.ndarray
+        G[i, j] = g_static(x_i - x_j, y_i - y_j) [m/N], shape (N, N).
+    """
+    from .influence import offset_matrix
+
+    table = _static_offset_table(pattern.block_elements, pattern.element_size, material)
+    return pattern.element_centres(), offset_matrix(table)
+
+
+def pattern_greens_dataset(pattern: PatternGeometry, material, influence: str = "standin") -> xr.Dataset:
+    """The block influence table of one pattern and material (``results/greens/pattern/{pattern}/{material}.nc``).
+
+    Variables ``influence`` (element, source) [m/N], coordinates ``x``, ``y`` of the element centres [m]; the
+    geometry, the memory of the table (``influence_bytes``) and the compute time (``compute_time_s``) as
+    attributes.
+    """
+    if influence not in PATTERN_INFLUENCES:
+        raise ValueError(f"pattern.influence = {influence!r}: expected one of {PATTERN_INFLUENCES}")
+    start = time.perf_counter()
+    xy, g = standin_block_influence(pattern, material)
+    elapsed = time.perf_counter() - start
+    n = g.shape[0]
+    logger.info("pattern %s, material %s: block of %d x %d elements, influence table %d x %d (%.3g MB) in %.3g s",
+                pattern.name, material.name, *pattern.block_elements, n, n, 8e-6 * n * n, elapsed)
+    el = {"units": "1", "long_name": "element index in the block (row-major over x then y)"}
+    ds = xr.Dataset(
+        {"influence": (("element", "source"), g, {"units": "m/N", "long_name": "static displacement at the element "
+                       "centre per unit force spread over the source element (block influence G_b)"})},
+        coords={"element": ("element", np.arange(n), el), "source": ("source", np.arange(n), dict(el)),
+                "x": ("element", xy[:, 0], {"units": "m", "long_name": "element centre x from the block corner"}),
+                "y": ("element", xy[:, 1], {"units": "m", "long_name": "element centre y from the block corner"})},
+        attrs={"pattern": pattern.name, "kind": "pattern", "influence_model": influence,
+               "influence_note": ("stand-in: the flat layer's static element kernel restricted to the block's elements "
+                                  "(no edge effect); to be replaced by the FE cell model (tyreroad.fe_pattern)"),
+               "material": material.name, "element_size": pattern.element_size,
+               "block_elements": np.asarray(pattern.block_elements, dtype=np.int64),
+               "block_length": pattern.block_length, "block_width": pattern.block_width,
+               "groove_width": pattern.groove_width, "groove_depth": pattern.groove_depth,
+               "influence_bytes": np.int64(8 * n * n),
+               "memory_note": "one N x N table for every block of the patch (block diagonal): memory independent of "
+                              "the number of blocks",
+               "compute_time_s": elapsed},
+    )
+    return ds
+
+
+def slick_greens_dataset(shape, element_size: float, material) -> xr.Dataset:
+    """The slick tread's static offset table g_static[dx, dy] [m/N] over a patch of ``shape`` (the reference of the
+    pattern study; translation invariant: (2 nx - 1)(2 ny - 1) values)."""
+    start = time.perf_counter()
+    table = _static_offset_table(tuple(shape), float(element_size), material)
+    elapsed = time.perf_counter() - start
+    nx, ny = (table.shape[0] + 1) // 2, (table.shape[1] + 1) // 2
+    return xr.Dataset(
+        {"g_static": (("dx", "dy"), table, {"units": "m/N", "long_name": "quasi-static element Green's function"})},
+        coords={"dx": ("dx", np.arange(-(nx - 1), nx), {"units": "1", "long_name": "element offset along x"}),
+                "dy": ("dy", np.arange(-(ny - 1), ny), {"units": "1", "long_name": "element offset along y"})},
+        attrs={"pattern": SLICK, "kind": "slick", "material": material.name, "element_size": float(element_size),
+               "influence_bytes": np.int64(table.nbytes), "compute_time_s": elapsed},
+    )
