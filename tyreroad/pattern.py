@@ -83,10 +83,10 @@ __all__ = [
 
 #: The name of the slick (unpatterned) tread in the pattern study's file names and case labels.
 SLICK = "slick"
-#: Where a block's influence table comes from (config ``pattern.influence``): ``standin`` is the analytic
-#: layer kernel restricted to the block (:func:`tyreroad.pattern_stage.standin_block_influence`); the FE cell
-#: model (``tyreroad.fe_pattern``) is added to this tuple when it is merged.
-PATTERN_INFLUENCES = ("standin",)
+#: Where a block's influence table comes from (config ``pattern.influence``): ``fe``, the FE cell model
+#: (:func:`tyreroad.pattern_stage.fe_block_influence`, ``tyreroad.fe_pattern``); ``standin``, the analytic
+#: layer kernel restricted to the block (:func:`tyreroad.pattern_stage.standin_block_influence`, no edge effect).
+PATTERN_INFLUENCES = ("fe", "standin")
 
 #: Relative tolerance for "a whole multiple of the element size".
 _GRID_RTOL = 1e-9
@@ -173,6 +173,13 @@ class PatternGeometry:
         n_x, n_y = self.block_elements
         ix, iy = np.divmod(np.arange(n_x * n_y), n_y)
         return np.stack([(ix + 0.5) * self.element_size, (iy + 0.5) * self.element_size], axis=1)
+
+    def tread_pattern(self):
+        """The FE cell model's geometry (:class:`tyreroad.fe_pattern.TreadPattern`) of this preset."""
+        from .fe_pattern import TreadPattern
+
+        return TreadPattern(self.block_length, self.block_width, self.groove_width, self.groove_depth,
+                            self.element_size)
 
     def config(self) -> dict[str, float]:
         """The preset as config (SI units)."""

@@ -3,8 +3,9 @@ tread's static offset table over the same patch (``results/greens/pattern/{patte
 
 Kept apart from :mod:`tyreroad.pattern` so that the pattern contact runs, which read these files, do not depend
 on the greens code (a change of the element Green's functions re-runs this stage, and the runs through its
-files). The FE cell model (``tyreroad.fe_pattern.block_static_influence``, same call shape as
-:func:`standin_block_influence`) enters here at merge, selected by ``pattern.influence``.
+files). ``pattern.influence`` picks the block table: ``fe`` (default), the FE cell model
+(:func:`tyreroad.fe_pattern.block_static_influence`), or ``standin``, the flat layer's kernel restricted to the block
+(no edge effect: what the FE table changes against it is the edge softening).
 """
 
 from __future__ import annotations
@@ -19,7 +20,7 @@ from .pattern import PATTERN_INFLUENCES, SLICK, PatternGeometry
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["standin_block_influence", "pattern_greens_dataset", "slick_greens_dataset"]
+__all__ = ["fe_block_influence", "standin_block_influence", "pattern_greens_dataset", "slick_greens_dataset"]
 
 
 def _static_offset_table(shape, element_size: float, material) -> np.ndarray:
@@ -57,6 +58,30 @@ def standin_block_influence(pattern: PatternGeometry, material) -> tuple[np.ndar
     return pattern.element_centres(), offset_matrix(table)
 
 
+def fe_block_influence(pattern: PatternGeometry, material) -> tuple[np.ndarray, np.ndarray, str]:
+    """The block's static influence from the FE cell model (:func:`tyreroad.fe_pattern.block_static_influence`,
+    its default mesh), with a note on the model for the file.
+
+    Returns
+    -------
+    element_centres_xy : numpy.ndarray
+        Centres [m] of the block's N elements, row-major over x then y, shape (N, 2).
+    G : numpy.ndarray
+        G[i, j] [m/N]: displacement at the centre of element i per unit force spread over element j, shape (N, N).
+    note : str
+        What the table is (model, mesh, boundary conditions).
+    """
+    from .fe_pattern import BlockMesh, block_static_influence
+
+    mesh = BlockMesh()
+    xy, g = block_static_influence(pattern.tread_pattern(), material, mesh)
+    asym = float(np.max(np.abs(g - g.T)) / np.max(np.abs(g)))
+    note = (f"FE cell model (tyreroad.fe_pattern): one block on the rigid belt, {mesh.per_element} x {mesh.per_element} "
+            f"{mesh.element} hexahedra per surface element, grooves {'to the belt' if not pattern.tread_pattern().has_undertread(material.thickness) else 'over an undertread, periodic cell'}; "
+            f"displacement at element centres (greens' convention), so G is reciprocal only to {asym:.1e} of max|G|")
+    return xy, g, note
+
+
 def pattern_greens_dataset(pattern: PatternGeometry, material, influence: str = "standin") -> xr.Dataset:
     """The block influence table of one pattern and material (``results/greens/pattern/{pattern}/{material}.nc``).
 
@@ -67,7 +92,12 @@ def pattern_greens_dataset(pattern: PatternGeometry, material, influence: str = 
     if influence not in PATTERN_INFLUENCES:
         raise ValueError(f"pattern.influence = {influence!r}: expected one of {PATTERN_INFLUENCES}")
     start = time.perf_counter()
-    xy, g = standin_block_influence(pattern, material)
+    if influence == "fe":
+        xy, g, note = fe_block_influence(pattern, material)
+    else:
+        xy, g = standin_block_influence(pattern, material)
+        note = ("stand-in: the flat layer's static element kernel restricted to the block's elements (no edge "
+                "effect, the coupling between blocks cut); for comparison with the FE cell model")
     elapsed = time.perf_counter() - start
     n = g.shape[0]
     logger.info("pattern %s, material %s: block of %d x %d elements, influence table %d x %d (%.3g MB) in %.3g s",
@@ -80,8 +110,7 @@ def pattern_greens_dataset(pattern: PatternGeometry, material, influence: str = 
                 "x": ("element", xy[:, 0], {"units": "m", "long_name": "element centre x from the block corner"}),
                 "y": ("element", xy[:, 1], {"units": "m", "long_name": "element centre y from the block corner"})},
         attrs={"pattern": pattern.name, "kind": "pattern", "influence_model": influence,
-               "influence_note": ("stand-in: the flat layer's static element kernel restricted to the block's elements "
-                                  "(no edge effect); to be replaced by the FE cell model (tyreroad.fe_pattern)"),
+               "influence_note": note,
                "material": material.name, "element_size": pattern.element_size,
                "block_elements": np.asarray(pattern.block_elements, dtype=np.int64),
                "block_length": pattern.block_length, "block_width": pattern.block_width,

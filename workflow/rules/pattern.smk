@@ -12,7 +12,7 @@ rule pattern_greens:
         f"{R}/benchmarks/greens/pattern/{{pattern}}/{{material}}.tsv"
     params:
         pattern=pattern_preset,
-        influence=PATTERN.get("influence", "standin"),
+        influence=PATTERN.get("influence", "fe"),
         material=resolved_material,
         element_size=lambda w: pattern_surface_spec().get("element_size", 1.0e-3),
         patch_elements=lambda w: pattern_surface_spec()["patch_elements"] if w.pattern == "slick" else None,
