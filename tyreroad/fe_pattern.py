@@ -1,0 +1,578 @@
+"""FE Green's functions of a patterned tread: one tread block on the rigid belt (issue 27, must-show 2).
+
+The pattern cell is one rectangular tread block (length along x, width along y) surrounded by half-grooves.
+The block is bonded to the rigid belt (u = 0 at z = h; z into the tread, surface z = 0). With full-depth grooves
+(groove depth = h) it stands alone: side faces traction-free. With shallower grooves it stands on an undertread
+of thickness h - groove depth that continues under the half-grooves to the cell boundary; block side faces and
+groove bottoms are traction-free.
+
+Cell boundary of the undertread (``BlockMesh.undertread_edge``): ``"periodic"`` (default) is the periodic array
+of identical blocks, each loaded identically (period block + groove along both axes). Each of the four symmetry
+classes below is then also (anti)symmetric about the cell boundary, so the boundary gets the same mirror
+condition as the block's own mirror plane in that class (rollers for the even class). ``"free"`` leaves the
+undertread's outer edge traction-free (one block on a finite undertread patch). How much the choice matters is
+measured in benchmarks/fe_pattern_block.py (see the numbers below).
+
+Influence matrix and conventions
+--------------------------------
+Surface elements of size c (1 mm) tile the block's top, n_x = block_length / c by n_y = block_width / c;
+element (i, j) has its centre at ((i + 1/2) c, (j + 1/2) c) from the block's corner, and the matrix index is
+i n_y + j (row-major over x then y, as numpy's ``ravel`` of an [x, y] array). G[p, s] [m/N] is the normal
+displacement (+z, into the tread) at the centre of element p for a unit normal force spread uniformly over
+element s (greens' convention: force spread over the loaded element, displacement at the field element's centre).
+With that convention G is only approximately symmetric on a block (Betti's theorem makes the *element-mean*
+displacement reciprocal, not the centre value); ``field="mean"`` returns the element-mean displacement, whose
+matrix is symmetric to round-off. Grooves are not surface elements: they are never in contact.
+
+Symmetry: the block and its cell have two mirror planes (x and y through the block centre). A load on element s
+is split into its four parts even/odd in x and y; each part is solved on the quarter model with the mirror
+plane's condition (even in x: u_x = 0 on x = 0; odd in x: u_y = u_z = 0), one factorisation per class and one
+right-hand side per quarter element, and G is recombined from the four quarter responses. Each class matrix is
+about a quarter of the full model's: 4 factorisations of quarter size cost much less than one of the full
+cell (3-D nested dissection: factor entries grow like n^(4/3)). The full model without symmetry
+(``symmetry=False``) is kept as an independent check of the recombination (tests).
+
+Mesh (:class:`BlockMesh`): tensor-product hexahedra, ``per_element`` elements laterally per 1 mm surface element
+over the whole block top (every top element is loaded, so the top cannot be graded), vertically ``c /
+per_element`` at the surface growing by ``growth`` to ``coarse``, a node plane at the groove bottom. Element
+and integration from :mod:`tyreroad.fe_layer` (assembly :func:`tyreroad.fe_layer.elasticity_matrices`,
+ordering :func:`tyreroad.fe_layer.nested_dissection`, SuperLU as there).
+
+The numbers (accuracy, convergence, edge softening, cost) are in :data:`MEASURED` below and printed by
+benchmarks/fe_pattern_block.py.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sps
+import scipy.sparse.linalg as spla
+
+from tyreroad.fe_layer import _INTORDER, _scalar_element, axis_nodes, elasticity_matrices, nested_dissection
+
+__all__ = ["TreadPattern", "BlockMesh", "BlockCell", "block_static_influence", "block_frequency_response",
+           "element_centres"]
+
+log = logging.getLogger(__name__)
+
+MEASURED = """(filled in from benchmarks/fe_pattern_block.py)"""
+
+
+def _whole(name: str, value: float, c: float, *, allow_zero: bool) -> int:
+    """Number of elements c in ``value``, or a ValueError naming the field."""
+    v = float(value)
+    if not math.isfinite(v) or v < 0 or (v == 0 and not allow_zero):
+        expect = ">= 0" if allow_zero else "> 0"
+        raise ValueError(f"TreadPattern.{name} must be a finite length {expect} [m], got {value!r}")
+    n = int(round(v / c))
+    if abs(n * c - v) > 1e-9 * max(c, v):
+        raise ValueError(f"TreadPattern.{name} = {v!r} m must be a whole multiple of the element size "
+                         f"{c!r} m (got {v / c:.6g} elements)")
+    return n
+
+
+@dataclass(frozen=True)
+class TreadPattern:
+    """Geometry of a periodic block pattern: rectangular blocks separated by straight grooves.
+
+    Parameters
+    ----------
+    block_length : float
+        Block size along x (rolling direction) [m]; a whole multiple of ``element_size``.
+    block_width : float
+        Block size along y [m]; a whole multiple of ``element_size``.
+    groove_width : float
+        Width of the grooves between blocks (both directions) [m]; a whole multiple of ``element_size``
+        (0: no grooves, a flat layer of period ``block_length`` x ``block_width``).
+    groove_depth : float
+        Groove depth from the surface [m], 0 <= groove_depth <= the tread thickness (checked against the material
+        where the model is built); equal to the thickness: full-depth grooves (free-standing blocks).
+    element_size : float
+        Surface element size c [m] (1 mm in the study).
+    """
+
+    block_length: float
+    block_width: float
+    groove_width: float
+    groove_depth: float
+    element_size: float = 1e-3
+
+    def __post_init__(self):
+        c = float(self.element_size)
+        if not (math.isfinite(c) and c > 0):
+            raise ValueError(f"TreadPattern.element_size must be a length > 0 [m], got {self.element_size!r}")
+        _whole("block_length", self.block_length, c, allow_zero=False)
+        _whole("block_width", self.block_width, c, allow_zero=False)
+        _whole("groove_width", self.groove_width, c, allow_zero=True)
+        d = float(self.groove_depth)
+        if not (math.isfinite(d) and d >= 0):
+            raise ValueError(f"TreadPattern.groove_depth must be a depth >= 0 [m], got {self.groove_depth!r}")
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """(n_x, n_y): surface elements on the block [-]."""
+        c = self.element_size
+        return int(round(self.block_length / c)), int(round(self.block_width / c))
+
+    def check_thickness(self, thickness: float) -> None:
+        """Raise ValueError unless groove_depth <= thickness [m]."""
+        if self.groove_depth > thickness * (1 + 1e-12):
+            raise ValueError(f"TreadPattern.groove_depth = {self.groove_depth!r} m exceeds the tread thickness "
+                             f"{thickness!r} m (expected 0 <= groove_depth <= thickness)")
+
+    def has_undertread(self, thickness: float) -> bool:
+        """True when the cell has material under the grooves (grooves shallower than the tread) [-]."""
+        return self.groove_width > 0 and self.groove_depth < thickness * (1 - 1e-12)
+
+
+@dataclass(frozen=True)
+class BlockMesh:
+    """Mesh layout of the block cell.
+
+    Parameters
+    ----------
+    per_element : int
+        Hexahedra per surface element along x and y on the block top (uniform there) [-].
+    growth : float
+        Vertical spacing ratio below the surface (>= 1) [-].
+    coarse : float
+        Largest vertical (and graded lateral) spacing [m].
+    element : str
+        ``"hexs2"`` (20-node serendipity), ``"hex2"`` (27-node) or ``"hex1"`` (locks at nu = 0.49).
+    volumetric : str
+        ``"full"`` or ``"reduced"`` Gauss order for the lambda div u div v term (see :mod:`tyreroad.fe_layer`).
+    uniform_extent : float or None
+        None: the whole block top is uniform (every element may be loaded). A length [m]: uniform only up to this
+        distance from the block centre, graded by ``lateral_growth`` beyond (only elements inside it may be loaded;
+        for large-block checks).
+    lateral_growth : float
+        Lateral spacing ratio beyond ``uniform_extent`` [-].
+    undertread_edge : str
+        ``"periodic"`` (mirror conditions at the cell boundary: the periodic array of identical, identically loaded
+        blocks) or ``"free"`` (traction-free outer edge of the undertread).
+    groove_spacing : float or None
+        Lateral spacing in the half-groove [m]; default the top spacing c / per_element.
+    """
+
+    per_element: int = 1
+    growth: float = 1.5
+    coarse: float = 2e-3
+    element: str = "hexs2"
+    volumetric: str = "full"
+    uniform_extent: float | None = None
+    lateral_growth: float = 1.5
+    undertread_edge: str = "periodic"
+    groove_spacing: float | None = None
+
+    def __post_init__(self):
+        if int(self.per_element) != self.per_element or self.per_element < 1:
+            raise ValueError(f"BlockMesh.per_element must be an integer >= 1, got {self.per_element!r}")
+        if self.element not in ("hexs2", "hex2", "hex1"):
+            raise ValueError(f"BlockMesh.element must be 'hexs2', 'hex2' or 'hex1', got {self.element!r}")
+        if self.volumetric not in ("full", "reduced"):
+            raise ValueError(f"BlockMesh.volumetric must be 'full' or 'reduced', got {self.volumetric!r}")
+        if self.undertread_edge not in ("periodic", "free"):
+            raise ValueError(f"BlockMesh.undertread_edge must be 'periodic' or 'free', got {self.undertread_edge!r}")
+        if not (self.growth >= 1 and self.lateral_growth >= 1 and self.coarse > 0):
+            raise ValueError("BlockMesh: need growth >= 1, lateral_growth >= 1 and coarse > 0 [m]")
+
+
+def element_centres(pattern: TreadPattern) -> np.ndarray:
+    """Centres of the block's surface elements from the block's corner, row-major over x then y.
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape (n_x n_y, 2) [m]; row i n_y + j is ((i + 1/2) c, (j + 1/2) c).
+    """
+    nx, ny = pattern.shape
+    c = pattern.element_size
+    i, j = np.meshgrid(np.arange(nx), np.arange(ny), indexing="ij")
+    return np.column_stack([(i.ravel() + 0.5) * c, (j.ravel() + 0.5) * c])
+
+
+def _graded(a: float, b: float, first: float, growth: float, coarse: float) -> np.ndarray:
+    """Nodes on [a, b] starting with spacing ``first`` at a and growing (``axis_nodes`` with no fine part)."""
+    if b - a <= 0:
+        return np.array([a])
+    return a + axis_nodes(b - a, first, 0.0, growth, max(coarse, first))
+
+
+def _lateral_axis(n: int, c: float, mesh: BlockMesh, groove_half: float) -> tuple[np.ndarray, float]:
+    """Quarter-model nodes along one axis from the block centre (0) to the cell boundary, and the block edge."""
+    half = n * c / 2
+    h = c / mesh.per_element
+    # element edges in the quarter: half - k c >= 0, and 0 (a mirror plane; splits the middle element if n is odd)
+    edges = sorted({0.0} | {half - k * c for k in range(n // 2 + 1)})
+    if mesh.uniform_extent is None:
+        u_end = half
+    else:
+        u_end = min(half, max(e for e in edges if e <= mesh.uniform_extent + 1e-12 * c))
+    nodes = [0.0]
+    for a, b in zip(edges[:-1], edges[1:]):
+        if b > u_end + 1e-12 * c:
+            break
+        k = max(1, int(round((b - a) / h)))
+        nodes.extend(a + (b - a) * np.arange(1, k + 1) / k)
+    x = np.asarray(nodes)
+    if u_end < half - 1e-12 * c:
+        x = np.concatenate([x, _graded(u_end, half, h * mesh.lateral_growth, mesh.lateral_growth,
+                                       mesh.coarse)[1:]])
+    if groove_half > 0:
+        gs = mesh.groove_spacing or h
+        k = max(1, int(math.ceil(groove_half / gs - 1e-9)))
+        x = np.concatenate([x, half + groove_half * np.arange(1, k + 1) / k])
+    return x, half
+
+
+class BlockCell:
+    """FE model of one tread block cell (quarter model by symmetry, or the full cell), assembled once.
+
+    Parameters
+    ----------
+    pattern : TreadPattern
+        Block and groove geometry.
+    thickness : float
+        Tread thickness h [m] (block height with full-depth grooves).
+    poisson : float
+        Poisson's ratio [-].
+    density : float
+        Density [kg/m^3].
+    mesh : BlockMesh
+        Mesh layout.
+    symmetry : bool
+        True: quarter model, four symmetry classes. False: the full cell (check of the recombination).
+    """
+
+    def __init__(self, pattern: TreadPattern, thickness: float, poisson: float, density: float,
+                 mesh: BlockMesh = BlockMesh(), symmetry: bool = True):
+        from skfem import Basis, MeshHex
+
+        t0 = time.perf_counter()
+        pattern.check_thickness(thickness)
+        self.pattern, self.layout, self.symmetry = pattern, mesh, bool(symmetry)
+        self.thickness = h = float(thickness)
+        self.poisson, self.density = float(poisson), float(density)
+        self.c = c = pattern.element_size
+        nx, ny = pattern.shape
+        under = pattern.has_undertread(h)
+        gd = min(float(pattern.groove_depth), h)
+        g_half = pattern.groove_width / 2 if under else 0.0
+        xq, hx = _lateral_axis(nx, c, mesh, g_half)
+        yq, hy = _lateral_axis(ny, c, mesh, g_half)
+        self.half = (hx, hy)
+        self.cell_half = (float(xq[-1]), float(yq[-1]))
+        top = c / mesh.per_element
+        if under:
+            z = np.concatenate([_graded(0.0, gd, top, mesh.growth, mesh.coarse),
+                                _graded(gd, h, top * mesh.growth ** 2, mesh.growth, mesh.coarse)[1:]])
+        else:
+            z = _graded(0.0, h, top, mesh.growth, mesh.coarse)
+        if self.symmetry:
+            xs, ys = xq, yq
+        else:
+            xs = np.concatenate([-xq[::-1], xq[1:]])
+            ys = np.concatenate([-yq[::-1], yq[1:]])
+        self.planes = (xs, ys, z)
+        m = MeshHex.init_tensor(xs, ys, z)
+        if under:
+            mid = m.p[:, m.t].mean(axis=1)
+            groove = ((np.abs(mid[0]) > hx) | (np.abs(mid[1]) > hy)) & (mid[2] < gd)
+            m = m.remove_elements(np.flatnonzero(groove)).remove_unused_nodes()
+        self.mesh = m
+        sb = Basis(m, _scalar_element(mesh.element), intorder=_INTORDER[mesh.element])
+        vb = Basis(m, sb.elem, intorder=_INTORDER[mesh.element] - 2) if mesh.volumetric == "reduced" else None
+        self.basis = sb
+        self.K_ref, self.M = elasticity_matrices(sb, self.poisson, self.density, vb)
+        self.assembly_time = time.perf_counter() - t0
+        ns = sb.N
+        tol = 1e-9 * c
+        x = sb.doflocs
+
+        # quarter (or full) surface elements: index (k, l) in the quarter, centre from the block centre
+        if self.symmetry:
+            kx = np.arange(nx - nx // 2)  # quarter elements along x: centres (k + 1/2) c (even n) or k c (odd)
+            ky = np.arange(ny - ny // 2)
+            cx = (kx + (0.5 if nx % 2 == 0 else 0.0)) * c
+            cy = (ky + (0.5 if ny % 2 == 0 else 0.0)) * c
+        else:
+            cx = (np.arange(nx) + 0.5) * c - hx
+            cy = (np.arange(ny) + 0.5) * c - hy
+        self.centres = (cx, cy)
+        CX, CY = np.meshgrid(cx, cy, indexing="ij")
+        self.loads = self._element_loads(CX.ravel(), CY.ravel())  # (3 ns, n_el) sparse, pressure 1/c^2 [N]
+        self._straddle = (np.isclose(CX.ravel(), 0.0, atol=tol), np.isclose(CY.ravel(), 0.0, atol=tol))
+        pts = np.vstack([CX.ravel(), CY.ravel(), np.zeros(CX.size)])
+        self.probes = sps.hstack([sps.csr_matrix((pts.shape[1], 2 * ns)), sb.probes(pts).tocsr()]).tocsr()
+
+        def on(pred):
+            return sb.get_dofs(pred).all()
+
+        base = on(lambda p: np.abs(p[2] - h) < tol)
+        self._fixed_base = np.concatenate([base, base + ns, base + 2 * ns])
+        self._planes_x = [on(lambda p: np.abs(p[0]) < tol)]  # mirror planes and, periodic, the cell boundary
+        self._planes_y = [on(lambda p: np.abs(p[1]) < tol)]
+        if under and mesh.undertread_edge == "periodic":
+            self._planes_x.append(on(lambda p: np.abs(np.abs(p[0]) - self.cell_half[0]) < tol))
+            self._planes_y.append(on(lambda p: np.abs(np.abs(p[1]) - self.cell_half[1]) < tol))
+        self._slaves = None
+        if not self.symmetry:
+            self._planes_x, self._planes_y = [], []
+            if under and mesh.undertread_edge == "periodic":
+                self._slaves = self._periodic_pairs()
+        self._node_order = nested_dissection(x, self.planes)
+        self.factor_time = 0.0
+        self.solve_time = 0.0
+
+    @property
+    def classes(self) -> list[tuple[int, int]]:
+        """Symmetry classes (a, b): +1 even, -1 odd in x and y; the full model has one, (0, 0)."""
+        return [(1, 1), (1, -1), (-1, 1), (-1, -1)] if self.symmetry else [(0, 0)]
+
+    def _element_loads(self, cx, cy) -> sps.csc_matrix:
+        """Load vectors of a unit force spread over each surface element (its part inside the model) [N]."""
+        from skfem import FacetBasis, LinearForm, asm
+
+        m, sb, c = self.mesh, self.basis, self.c
+        tol = 1e-9 * c
+        fmid = m.p[:, m.facets].mean(axis=1)
+        top = np.flatnonzero(np.abs(fmid[2]) < tol)
+        ns = sb.N
+        cols = []
+        c2 = c * c
+
+        @LinearForm
+        def pressure(v, w):
+            return v / c2  # unit force over the c x c element, pushing into the tread (+z)
+
+        for x0, y0 in zip(cx, cy):
+            sel = top[(np.abs(fmid[0, top] - x0) < c / 2) & (np.abs(fmid[1, top] - y0) < c / 2)]
+            fb = FacetBasis(m, sb.elem, facets=sel, intorder=_INTORDER[self.layout.element])
+            cols.append(sps.csc_matrix(asm(pressure, fb)[:, None]))
+        Fz = sps.hstack(cols).tocsr()
+        return sps.vstack([sps.csr_matrix((2 * ns, Fz.shape[1])), Fz]).tocsc()
+
+    def _free(self, cls) -> np.ndarray:
+        ns = self.basis.N
+        a, b = cls
+        fixed = [self._fixed_base]
+        for planes, sign, normal, tang in ((self._planes_x, a, 0, (1, 2)), (self._planes_y, b, 1, (0, 2))):
+            for dofs in planes:
+                comps = (normal,) if sign >= 0 else tang
+                fixed.extend(dofs + ns * q for q in comps)
+        if self._slaves is not None:
+            fixed.append(self._slaves[0])
+        fixed = np.unique(np.concatenate(fixed))
+        vec = (self._node_order[:, None] + ns * np.arange(3)[None, :]).ravel()
+        return vec[~np.isin(vec, fixed)]
+
+    def _reduction(self, cls) -> sps.csr_matrix:
+        """T (all DOFs x kept DOFs): u = T u_kept. Selection of the free DOFs; in the full periodic cell the DOFs
+        on the +x / +y cell boundary are tied to their images on -x / -y (translation periodicity)."""
+        free = self._free(cls)
+        n = 3 * self.basis.N
+        col = np.full(n, -1)
+        col[free] = np.arange(free.size)
+        rows, cols = free, np.arange(free.size)
+        if self._slaves is not None:
+            slave, master = self._slaves
+            ok = col[master] >= 0
+            rows = np.concatenate([rows, slave[ok]])
+            cols = np.concatenate([cols, col[master[ok]]])
+        return sps.csr_matrix((np.ones(rows.size), (rows, cols)), shape=(n, free.size))
+
+    def _periodic_pairs(self):
+        """(slave DOFs, master DOFs): nodes on x = +X (y = +Y) and their images at -X (-Y), all three components."""
+        ns = self.basis.N
+        x = self.basis.doflocs
+        X, Y = self.cell_half
+        tol = 1e-9 * self.c
+        img = x.copy()
+        sx = np.abs(x[0] - X) < tol
+        sy = np.abs(x[1] - Y) < tol
+        img[0, sx] = -X
+        img[1, sy] = -Y
+        slave = np.flatnonzero(sx | sy)
+        key = {tuple(np.round(x[:, k] / tol).astype(np.int64)): k for k in range(ns)}
+        master = np.array([key[tuple(np.round(img[:, k] / tol).astype(np.int64))] for k in slave], dtype=int)
+        return (np.concatenate([slave + ns * q for q in range(3)]),
+                np.concatenate([master + ns * q for q in range(3)]))
+
+    def class_response(self, cls, modulus: complex = 1.0, omega: float = 0.0, sources=None, field="centre"):
+        """Quarter responses of one symmetry class: field elements x source elements of the model.
+
+        Returns
+        -------
+        numpy.ndarray
+            U[p, s] [m/N]: u_z at the centre (``field="centre"``) or the mean over the field element's part in the
+            model times its multiplicity (``"mean"``), for the class part of the unit load on source s.
+        """
+        T = self._reduction(cls)
+        Tt = T.T.tocsr()
+        a = (Tt @ self.K_ref @ T) * modulus
+        if omega:
+            a = a - (omega * omega) * (Tt @ self.M @ T)
+        t0 = time.perf_counter()
+        lu = spla.splu(a.tocsc(), permc_spec="NATURAL", diag_pivot_thresh=0.0, options={"SymmetricMode": True})
+        t1 = time.perf_counter()
+        n_el = self.loads.shape[1]
+        src = np.arange(n_el) if sources is None else np.asarray(sources)
+        mult = self._multiplicity(cls)
+        loads = Tt @ self.loads
+        rhs = (loads[:, src] @ sps.diags(mult[src])).toarray().astype(a.dtype)
+        u = lu.solve(rhs) if rhs.size else rhs
+        if field == "centre":
+            out = (self.probes @ T) @ u
+        elif field == "mean":
+            out = (loads @ sps.diags(mult)).T @ u
+        else:
+            raise ValueError(f"field must be 'centre' or 'mean', got {field!r}")
+        self.factor_time += t1 - t0
+        self.solve_time += time.perf_counter() - t1
+        return np.asarray(out)
+
+    def _multiplicity(self, cls) -> np.ndarray:
+        """(1 + a) (1 + b) for elements cut by the mirror planes (their part in the quarter carries 1/2 or 1/4)."""
+        a, b = cls
+        mx = np.where(self._straddle[0], 1 + a, 1) if self.symmetry else np.ones(self._straddle[0].size)
+        my = np.where(self._straddle[1], 1 + b, 1) if self.symmetry else np.ones(self._straddle[1].size)
+        return (mx * my).astype(float)
+
+    def influence(self, modulus: complex = 1.0, omega: float = 0.0, sources=None, field="centre") -> np.ndarray:
+        """Influence matrix over the block's elements, row-major (i n_y + j), shape (N, len(sources)) [m/N].
+
+        Parameters
+        ----------
+        modulus : complex
+            Young's modulus [Pa] (the quasi-static modulus for a static solve).
+        omega : float
+            Angular frequency [rad/s].
+        sources : array_like of int, optional
+            Block element indices (row-major) of the loaded elements; default all N.
+        field : str
+            ``"centre"`` (greens' convention) or ``"mean"`` (element-mean displacement; symmetric matrix).
+        """
+        nx, ny = self.pattern.shape
+        src = np.arange(nx * ny) if sources is None else np.atleast_1d(np.asarray(sources, dtype=int))
+        si, sj = np.divmod(src, ny)
+        if not self.symmetry:
+            u = self.class_response((0, 0), modulus, omega, src, field)
+            return u.reshape(nx * ny, len(src))
+        # quarter index and sign of every block element along each axis
+        def fold(i, n):
+            k = np.maximum(i, n - 1 - i) - n // 2
+            return k, np.where(2 * i + 1 < n, -1, 1)
+
+        ksx, sgx = fold(si, nx)
+        ksy, sgy = fold(sj, ny)
+        nqy = ny - ny // 2
+        qsrc = ksx * nqy + ksy
+        uq, inv = np.unique(qsrc, return_inverse=True)
+        out = np.zeros((nx * ny, len(src)), dtype=complex if np.iscomplexobj(modulus) or omega else float)
+        pi, pj = np.divmod(np.arange(nx * ny), ny)
+        for cls in self.classes:
+            a, b = cls
+            U = self.class_response(cls, modulus, omega, uq, field)[:, inv]  # (quarter field, sources)
+            # mirror the field point with the source's signs, then fold it into the quarter
+            pi2 = np.where(sgx[None, :] < 0, nx - 1 - pi[:, None], pi[:, None])
+            pj2 = np.where(sgy[None, :] < 0, ny - 1 - pj[:, None], pj[:, None])
+            kpx, tx = fold(pi2, nx)
+            kpy, ty = fold(pj2, ny)
+            sign = np.where(tx < 0, a, 1) * np.where(ty < 0, b, 1)
+            out += 0.25 * sign * np.take_along_axis(U, kpx * nqy + kpy, axis=0)
+        return out
+
+    @property
+    def n_dofs(self) -> int:
+        """Free DOFs of the largest class matrix [-]."""
+        return max(self._reduction(cls).shape[1] for cls in self.classes)
+
+
+def _check_material(material, pattern):
+    pattern.check_thickness(float(material.thickness))
+
+
+def block_static_influence(pattern: TreadPattern, material, mesh: BlockMesh = BlockMesh(), *,
+                           field: str = "centre", symmetry: bool = True, return_cell: bool = False):
+    """Static influence matrix of every block surface element on every block surface element.
+
+    Parameters
+    ----------
+    pattern : TreadPattern
+        Block and groove geometry (groove_depth <= material.thickness).
+    material : tyreroad.material.Material
+        Provides ``quasi_static_modulus`` [Pa], ``poisson``, ``density`` and ``thickness`` [m].
+    mesh : BlockMesh
+        Mesh layout (default: one 20-node hexahedron per surface element, see :data:`MEASURED`).
+    field : str
+        ``"centre"``: displacement at the field element's centre (greens' convention); ``"mean"``: its mean
+        over the field element (a symmetric matrix).
+    symmetry : bool
+        Quarter model with four symmetry classes (default) or the full cell.
+    return_cell : bool
+        Also return the :class:`BlockCell` (timings, DOFs).
+
+    Returns
+    -------
+    centres : numpy.ndarray
+        Element centres from the block's corner, shape (N, 2) [m], N = n_x n_y, row-major over x then y
+        (row i n_y + j is element (i, j) at ((i + 1/2) c, (j + 1/2) c)).
+    G : numpy.ndarray
+        Shape (N, N) [m/N]: G[p, s] = normal displacement (into the tread, positive in compression) at element p
+        per unit normal force spread uniformly over element s.
+    """
+    _check_material(material, pattern)
+    cell = BlockCell(pattern, material.thickness, material.poisson, material.density, mesh, symmetry)
+    g = cell.influence(float(material.quasi_static_modulus), 0.0, field=field)
+    out = (element_centres(pattern), g)
+    return out + (cell,) if return_cell else out
+
+
+def block_frequency_response(pattern: TreadPattern, material, frequencies, sources, mesh: BlockMesh = BlockMesh(),
+                             *, field: str = "centre", cell: BlockCell | None = None):
+    """Complex influence of chosen source elements on every block element, per frequency.
+
+    Solves (E(omega) K_1 - omega^2 M) u = f (exp(+i omega t); Im E > 0, so Im g < 0 for a passive block), the
+    quasi-static modulus at f = 0.
+
+    Parameters
+    ----------
+    pattern : TreadPattern
+        Block geometry.
+    material : tyreroad.material.Material
+        ``modulus(omega)`` [Pa], ``quasi_static_modulus`` [Pa], ``poisson``, ``density`` [kg/m^3],
+        ``thickness`` [m].
+    frequencies : array_like
+        Frequencies f >= 0 [Hz].
+    sources : array_like of int
+        Loaded elements (row-major indices i n_y + j).
+    mesh : BlockMesh
+        Mesh layout.
+    field : str
+        ``"centre"`` or ``"mean"`` (see :func:`block_static_influence`).
+    cell : BlockCell, optional
+        A cell built for this pattern and material (reused: assembly once).
+
+    Returns
+    -------
+    numpy.ndarray
+        Complex, shape (len(frequencies), N, len(sources)) [m/N].
+    """
+    _check_material(material, pattern)
+    f = np.atleast_1d(np.asarray(frequencies, dtype=float))
+    if np.any(f < 0):
+        raise ValueError("frequencies must be >= 0 [Hz]")
+    if cell is None:
+        cell = BlockCell(pattern, material.thickness, material.poisson, material.density, mesh)
+    src = np.atleast_1d(np.asarray(sources, dtype=int))
+    out = np.empty((f.size, int(np.prod(pattern.shape)), src.size), dtype=complex)
+    for n, fn in enumerate(f):
+        w = 2 * np.pi * fn
+        e = complex(material.quasi_static_modulus) if fn == 0 else complex(np.ravel(material.modulus(w))[0])
+        out[n] = cell.influence(e, w, src, field)
+    return out
