@@ -694,7 +694,8 @@ def gent_lindley_modulus(length: float, width: float, height: float, poisson: fl
 
 
 def tet_reference_influence(pattern: TreadPattern, modulus: float, poisson: float, thickness: float, sources,
-                            lateral: float = 0.5e-3, growth: float = 1.4, coarse: float = 2.5e-3) -> np.ndarray:
+                            lateral: float = 0.5e-3, growth: float = 1.4, coarse: float = 2.5e-3,
+                            mean_self: bool = False) -> np.ndarray:
     """Independent FE model of a free-standing block (full-depth grooves): an oracle for :class:`BlockCell`.
 
     Shares nothing with :class:`BlockCell` but the boundary-value problem: scikit-fem's own vector
@@ -719,6 +720,8 @@ def tet_reference_influence(pattern: TreadPattern, modulus: float, poisson: floa
         Lateral spacing [m] (a divisor of the element size).
     growth, coarse : float
         Depth grading ratio [-] and largest depth spacing [m].
+    mean_self : bool
+        Also return each source's own element-mean displacement (the energy f.u per unit force) [m/N].
 
     Returns
     -------
@@ -764,6 +767,8 @@ def tet_reference_influence(pattern: TreadPattern, modulus: float, poisson: floa
     u[free] = lu.solve(rhs[free])
     pts = np.vstack([element_centres(pattern).T, np.zeros(nx * ny)])
     P = sb.probes(pts).tocsr()
+    if mean_self:
+        return P @ u[comp[2]], np.einsum("ij,ij->j", rhs, u)
     return P @ u[comp[2]]
 
 
