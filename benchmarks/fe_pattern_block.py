@@ -136,13 +136,13 @@ def case_dyn(size, pe, nf=40):
 CASES = {
     "block": [("block", 20e-3, 10e-3, 1), ("block", 20e-3, 10e-3, 1, "difference"), ("block", 20e-3, 10e-3, 2),
               ("block", 40e-3, 10e-3, 1), ("block", 40e-3, 10e-3, 1, "difference")],
+    "big": [("block", 40e-3, 10e-3, 2)],
+    "fine": [("block", 20e-3, 10e-3, 3)],
+    "under": [("block", 20e-3, 6e-3, 2), ("block", 20e-3, 6e-3, 2, "none", "free")],
     "plate": [("plate", 20e-3, 1), ("plate", 20e-3, 2), ("plate", 40e-3, 1)],
-    "under": [("block", 20e-3, 6e-3, 1, "difference"), ("block", 20e-3, 6e-3, 2)],
-    "edge": [("block", 20e-3, 6e-3, 2, "none", "free")],
-    "tet": [("tet", 8e-3, 0.5e-3, 0), ("tet", 8e-3, 0, 1), ("tet", 8e-3, 0, 2), ("tet", 8e-3, 0, 3)],
-    "dyn": [("dyn", 20e-3, 1)],
+    "tet": [("tet", 8e-3, 0.5e-3, 0), ("tet", 8e-3, 0.25e-3, 0), ("tet", 8e-3, 0, 2), ("tet", 8e-3, 0, 3)],
+    "dyn": [("dyn", 20e-3, 2, 16)],
     "flat": [("flat", 1), ("flat", 2)],
-    "heavy": [("block", 20e-3, 10e-3, 3), ("plate", 40e-3, 2), ("block", 40e-3, 10e-3, 2)],
 }
 
 

@@ -104,3 +104,23 @@ def test_edge_and_corner_softer_than_centre_and_independent_model(tread):
     gti = np.array([gt[s, k] for k, s in enumerate(src)])
     assert np.all(np.abs(gii / gti - 1) < TOL_TET), gii / gti - 1
     assert gii[0] < gii[1] < gii[2] and gti[0] < gti[1] < gti[2]
+
+
+def test_frequency_response_limits_and_passivity(tread):
+    """Dynamic block: at 1 Hz inertia is negligible, so g = g_static E_qs / E(1 Hz) (the modulus scaling of
+    K(w) = E(w) K_1 - w^2 M, complex); f = 0 is the static influence; the passive block lags (Im g_ii < 0 for
+    f > 0, exp(+i w t)); element means stay reciprocal (complex symmetric) at 5 kHz."""
+    pat = fp.TreadPattern(4e-3, 3e-3, 2e-3, 10e-3)
+    mesh = fp.BlockMesh(per_element=1, coarse=3e-3)
+    n = int(np.prod(pat.shape))
+    src = np.arange(n)
+    g = fp.block_frequency_response(pat, tread, [0.0, 1.0, 1000.0, 5000.0], src, mesh)
+    _, gs = fp.block_static_influence(pat, tread, mesh)
+    np.testing.assert_allclose(g[0].real, gs, rtol=1e-10, atol=1e-12 * np.abs(gs).max())
+    e1 = complex(np.ravel(tread.modulus(2 * np.pi * 1.0))[0])
+    np.testing.assert_allclose(g[1], gs * tread.quasi_static_modulus / e1, rtol=1e-4)
+    for k in (1, 2, 3):
+        d = np.diag(g[k])
+        assert np.all(d.real > 0) and np.all(d.imag < 0), d
+    gm = fp.block_frequency_response(pat, tread, [5000.0], src, mesh, field="mean")[0]
+    assert np.abs(gm - gm.T).max() < 1e-9 * np.abs(gm).max()
