@@ -124,3 +124,22 @@ def test_frequency_response_limits_and_passivity(tread):
         assert np.all(d.real > 0) and np.all(d.imag < 0), d
     gm = fp.block_frequency_response(pat, tread, [5000.0], src, mesh, field="mean")[0]
     assert np.abs(gm - gm.T).max() < 1e-9 * np.abs(gm).max()
+
+
+def test_modal_form_matches_direct_solves(tread):
+    """30 modes per symmetry class plus the static residual reproduce the direct complex solves of an 8 x 8 mm
+    block within 1 % at 1-5 kHz (measured 0.01 % at 1 kHz, 0.21 % at 5 kHz on the diagonal); 10 modes are
+    worse (0.72 % at 5 kHz), so the residual term is not doing all the work. Odd classes resonate first
+    (rocking, 2.73 kHz on this mesh)."""
+    pat = fp.TreadPattern(8e-3, 8e-3, 2e-3, 10e-3)
+    cell = fp.BlockCell(pat, tread.thickness, tread.poisson, tread.density, fp.BlockMesh(per_element=1, coarse=3e-3))
+    src = [4 * 8 + 4, 4 * 8, 0]
+    bm = fp.BlockModes(cell, 30)
+    for f in (1000.0, 5000.0):
+        w = 2 * np.pi * f
+        e = complex(np.ravel(tread.modulus(w))[0])
+        gd = cell.influence(e, w, src)
+        gm = bm.influence(e, w, src)
+        assert np.abs(gm - gd).max() < 0.01 * np.abs(gd).max()
+    fr = bm.frequencies(tread)
+    assert 2000 < fr[(1, -1)][0] < 3500 and fr[(1, -1)][0] == pytest.approx(fr[(-1, 1)][0], rel=1e-6)

@@ -55,7 +55,8 @@ import scipy.sparse.linalg as spla
 
 from tyreroad.fe_layer import _INTORDER, _scalar_element, axis_nodes, elasticity_matrices, nested_dissection
 
-__all__ = ["TreadPattern", "BlockMesh", "BlockCell", "block_static_influence", "block_frequency_response",
+__all__ = ["TreadPattern", "BlockMesh", "BlockCell", "BlockModes", "block_static_influence", "block_frequency_response",
+           "bonded_plate_modulus", "gent_lindley_modulus", "tet_reference_influence", "flat_correction",
            "element_centres"]
 
 log = logging.getLogger(__name__)
@@ -479,7 +480,8 @@ class BlockCell:
         my = np.where(self._straddle[1], 1 + b, 1) if self.symmetry else np.ones(self._straddle[1].size)
         return (mx * my).astype(float)
 
-    def influence(self, modulus: complex = 1.0, omega: float = 0.0, sources=None, field="centre") -> np.ndarray:
+    def influence(self, modulus: complex = 1.0, omega: float = 0.0, sources=None, field="centre",
+                  responder=None) -> np.ndarray:
         """Influence matrix over the block's elements, row-major (i n_y + j), shape (N, len(sources)) [m/N].
 
         Parameters
@@ -492,7 +494,13 @@ class BlockCell:
             Block element indices (row-major) of the loaded elements; default all N.
         field : str
             ``"centre"`` (greens' convention) or ``"mean"`` (element-mean displacement; symmetric matrix).
+        responder : callable, optional
+            ``responder(cls, quarter_sources)`` -> class response (quarter field x sources) used instead of a direct
+            solve (:class:`BlockModes`).
         """
+        if responder is None:
+            def responder(cls, q):
+                return self.class_response(cls, modulus, omega, q, field)
         nx, ny = self.pattern.shape
         src = np.arange(nx * ny) if sources is None else np.atleast_1d(np.asarray(sources, dtype=int))
         si, sj = np.divmod(src, ny)
@@ -503,7 +511,7 @@ class BlockCell:
             raise ValueError(f"source elements {src[~(lx & ly)][:5]} lie outside the uniformly meshed part "
                              f"(BlockMesh.uniform_extent) and cannot be loaded")
         if not self.symmetry:
-            u = self.class_response((0, 0), modulus, omega, src, field)
+            u = responder((0, 0), src)
             return u.reshape(nx * ny, len(src))
         # quarter index and sign of every block element along each axis
         def fold(i, n):
@@ -516,10 +524,12 @@ class BlockCell:
         qsrc = ksx * nqy + ksy
         uq, inv = np.unique(qsrc, return_inverse=True)
         out = np.zeros((nx * ny, len(src)), dtype=complex if np.iscomplexobj(modulus) or omega else float)
+        if responder is not None and not (np.iscomplexobj(modulus) or omega):
+            out = out.astype(complex)
         pi, pj = np.divmod(np.arange(nx * ny), ny)
         for cls in self.classes:
             a, b = cls
-            U = self.class_response(cls, modulus, omega, uq, field)[:, inv]  # (quarter field, sources)
+            U = responder(cls, uq)[:, inv]  # (quarter field, sources)
             # mirror the field point with the source's signs, then fold it into the quarter
             pi2 = np.where(sgx[None, :] < 0, nx - 1 - pi[:, None], pi[:, None])
             pj2 = np.where(sgy[None, :] < 0, ny - 1 - pj[:, None], pj[:, None])
@@ -816,3 +826,71 @@ def flat_correction(pattern: TreadPattern, material, mesh: BlockMesh, reach: int
     G = np.zeros((nx * ny, nx * ny))
     G[inside] = delta[(oi + reach)[inside], (oj + reach)[inside]]
     return delta, G
+
+
+class BlockModes:
+    """Modal form of the block's response: one generalised eigen-decomposition per symmetry class and geometry.
+
+    K_1 phi = lambda M phi (K_1 for E = 1 Pa; phi M-orthonormal) serves every material with the same Poisson's
+    ratio: with a frequency-independent nu, K(omega) = E(omega) K_1, so
+
+        G(omega) = sum_k P phi_k phi_k^T F / (E(omega) lambda_k - omega^2)
+                   + [P K_1^-1 F - sum_k P phi_k phi_k^T F / lambda_k] / E(omega),
+
+    the second term being the static residual of the modes left out (exact at omega = 0, and wherever the omitted
+    modes respond quasi-statically). A density scale s only rescales lambda -> lambda / s.
+
+    Parameters
+    ----------
+    cell : BlockCell
+        The assembled cell (its density sets lambda [1/(Pa s^2)]).
+    n_modes : int
+        Modes kept per symmetry class (the lowest, by shift-invert about 0).
+    field : str
+        ``"centre"`` or ``"mean"``.
+    """
+
+    def __init__(self, cell: BlockCell, n_modes: int, field: str = "centre"):
+        self.cell, self.field = cell, field
+        self.data = {}
+        t0 = time.perf_counter()
+        for cls in cell.classes:
+            T = cell._reduction(cls)
+            Tt = T.T.tocsr()
+            K = (Tt @ cell.K_ref @ T).tocsc()
+            M = (Tt @ cell.M @ T).tocsc()
+            lu = spla.splu(K, permc_spec="NATURAL", diag_pivot_thresh=0.0, options={"SymmetricMode": True})
+            op = spla.LinearOperator(K.shape, matvec=lu.solve, dtype=float)
+            k = min(int(n_modes), K.shape[0] - 2)
+            lam, phi = spla.eigsh(K, k=k, M=M, sigma=0.0, which="LM", OPinv=op)
+            mult = cell._multiplicity(cls)
+            F = (Tt @ cell.loads) @ sps.diags(mult)
+            P = (cell.probes @ T) if field == "centre" else F.T
+            Pphi = np.asarray(P @ phi)
+            Fphi = np.asarray(F.T @ phi)
+            static = np.asarray(P @ lu.solve(F.toarray()))
+            self.data[cls] = (lam, Pphi, Fphi, static)
+        self.time = time.perf_counter() - t0
+
+    def frequencies(self, material) -> dict:
+        """Undamped natural frequencies sqrt(Re E(f) lambda) / 2 pi solved by fixed point [Hz], per class."""
+        out = {}
+        for cls, (lam, *_rest) in self.data.items():
+            f = np.sqrt(float(material.quasi_static_modulus) * lam) / (2 * np.pi)
+            for _ in range(30):
+                e = np.real(np.asarray(material.modulus(2 * np.pi * f)))
+                f = np.sqrt(e * lam) / (2 * np.pi)
+            out[cls] = np.sort(f)
+        return out
+
+    def influence(self, modulus: complex, omega: float, sources=None) -> np.ndarray:
+        """As :meth:`BlockCell.influence`, from the modes [m/N]."""
+        e = complex(modulus)
+
+        def responder(cls, q):
+            lam, Pphi, Fphi, static = self.data[cls]
+            modal = (Pphi / (e * lam - omega * omega)) @ Fphi[q].T
+            resid = (static[:, q] - (Pphi / lam) @ Fphi[q].T) / e
+            return modal + resid
+
+        return self.cell.influence(e, omega, sources, self.field, responder=responder)
