@@ -461,14 +461,17 @@ class BlockCell:
         src = np.arange(n_el) if sources is None else np.asarray(sources)
         mult = self._multiplicity(cls)
         loads = Tt @ self.loads
-        rhs = (loads[:, src] @ sps.diags(mult[src])).toarray().astype(a.dtype)
-        u = lu.solve(rhs) if rhs.size else rhs
         if field == "centre":
-            out = (self.probes @ T) @ u
+            P = (self.probes @ T).tocsr()
         elif field == "mean":
-            out = (loads @ sps.diags(mult)).T @ u
+            P = (loads @ sps.diags(mult)).T.tocsr()
         else:
             raise ValueError(f"field must be 'centre' or 'mean', got {field!r}")
+        out = np.zeros((P.shape[0], len(src)), dtype=a.dtype)
+        for k in range(0, len(src), 64):  # right-hand sides in blocks: the dense n_dofs x N arrays cost GBs
+            part = src[k:k + 64]
+            rhs = (loads[:, part] @ sps.diags(mult[part])).toarray().astype(a.dtype)
+            out[:, k:k + 64] = P @ lu.solve(rhs)
         self.factor_time += t1 - t0
         self.solve_time += time.perf_counter() - t1
         return np.asarray(out)
