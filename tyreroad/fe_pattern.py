@@ -61,7 +61,74 @@ __all__ = ["TreadPattern", "BlockMesh", "BlockCell", "BlockModes", "block_static
 
 log = logging.getLogger(__name__)
 
-MEASURED = """(filled in from benchmarks/fe_pattern_block.py)"""
+MEASURED = """
+Measured (tread preset: E_qs 25 MPa, nu 0.49, rho 1100, h 10 mm; benchmarks/fe_pattern_block.py; one core of a
+shared 2-core machine, so times are upper bounds).
+
+Mesh choice, against the analytic flat layer (greens.static_element_kernel) at the centre of a 60 mm
+free-standing block (2 h from its sides: its centre is the flat layer), centre element loaded, mesh uniform over
+4 mm around it and graded beyond; g_FE / g - 1 [%] at offsets (0,0) (1,0) (1,1) (2,0) (3,0):
+
+    per_element  element  depth_fine  DOFs     (0,0)   (1,0)   (1,1)   (2,0)   (3,0)
+    1            Hex S2   0           22 k    -26.9   +19.8    +1.3    -8.9    +1.5
+    1            Hex S2   2 mm        22 k    -24.1   +22.1    +1.4   -11.1    -3.3
+    1            Hex 2    0           43 k    -16.5    -0.1   +14.9    -4.7    +0.9
+    2            Hex S2   0           43 k     -2.6    +0.9    +2.1    +0.5    +0.3
+    2            Hex S2 reduced vol.  43 k     -5.3    +6.0    +0.4    -0.9    -0.0
+    2            Hex S2   2 mm        55 k     -0.34   +1.00   -0.48   -0.02   +0.38   <- default
+    2            Hex 2    2 mm       108 k     -0.13   +0.97   -1.03   +0.39   +0.43
+
+One quadratic hexahedron per 1 mm element is 16-27 % off (the load's edge falls on the element's boundary and
+the point value at its centre is poorly resolved); two per element with the uniform 0.5 mm layers down to 2 mm
+(then growing by 1.5 to 2 mm) is within 1 %. Selective reduced integration (fe_layer's default) needs at least 2 x
+2 hexahedra per loaded quarter element and is worse here. The default :class:`BlockMesh` is the marked row
+(Hex S2, full integration, ``per_element=2``, ``depth_fine=2e-3``, growth 1.5 to 2 mm).
+
+Difference correction (``correction="difference"``, G_an(offset) + G_FE,block - G_FE,flat(offset) on the same mesh)
+does not rescue the one-per-element mesh: on the 20 mm block it brings the centre to the flat layer (3.271e-5
+against 3.260e-5 m/N with 2 per element) but leaves the edge and corner 4.6 % and 5.7 % off (5.717e-5 / 9.236e-5
+against 5.465e-5 / 8.737e-5): the discretisation error at the edge is not the flat one. Not used by default.
+
+Edge softening (must-show 2), static g_ii [m/N], full-depth grooves (free-standing blocks), 2 per element:
+
+    block        DOFs    centre      edge-centre  corner      edge/centre  corner/centre
+    20 x 20 mm   45 k    3.260e-5    5.465e-5     8.737e-5    1.676        2.680
+    40 x 40 mm  177 k    3.235e-5    5.423e-5     8.728e-5    1.676        2.698
+    (the flat layer's g(0,0) = 3.27e-5 m/N)
+
+Mesh convergence of the same quantities (20 mm block): 1 per element 2.489e-5 / 4.936e-5 / 8.454e-5 (ratios
+1.98 / 3.40), 2 per element as above, 3 per element: see CONVERGENCE below. On a 4 x 4 mm block (cheap enough
+for three meshes) 2 -> 3 per element changes g_ii by +0.14 / +0.29 / +0.16 % (centre / edge / corner) and the
+ratios by +0.16 / +0.03 %.
+
+Independent model (:func:`tet_reference_influence`: skfem's own vector ``linear_elasticity`` form on quadratic
+tetrahedra, whole block without symmetry, another mesh): 4 x 4 x 10 mm block, g_ii centre / edge / corner [1e-5 m/N]
+
+    Hex S2, 2 per element    5.684   9.795   14.136
+    Hex S2, 3 per element    5.692   9.823   14.159
+    TetP2 0.5 mm             5.621   9.676   13.998   (-1.1 / -1.2 / -1.0 % against Hex S2 2)
+    TetP2 1/3 mm             5.409   9.476   13.785   (not nested with 0.5 mm; TetP2 at nu 0.49 converges erratically)
+    TetP2 0.25 mm            5.687   9.748   14.026   (+0.05 / -0.5 / -0.8 % against Hex S2 2)
+
+so the two models agree within 1.2 % (0.8 % on the finest pair); the edge ratios 1.723 / 2.487 (Hex S2 3) against
+1.714 / 2.466 (TetP2 0.25 mm).
+
+Reciprocity: with greens' convention (centre value, uniform load) G is not exactly symmetric on a block;
+max |G - G^T| / max G = 0.45 % (2 per element, 20 and 40 mm blocks). The element-mean matrix is symmetric to
+round-off (tests).
+
+Cost (static, all N sources, 4 symmetry classes, one core of a shared machine):
+
+    block         per_element  DOFs/class  assembly  factor (4x)  solve (N RHS)  total    peak RSS  table N^2 x 8 B
+    20 x 20 mm    1             7.9 k        0.4 s      2.0 s       1.4 s          4 s     0.28 GB    1.3 MB
+    20 x 20 mm    2            45 k          1.7 s     43 s        14 s           60 s     1.4 GB     1.3 MB
+    40 x 40 mm    1            30 k          1.6 s     16 s        29 s           48 s     ~0.6 GB   20.5 MB
+    40 x 40 mm    2           177 k         15 s      568 s       421 s         1010 s     7.5 GB    20.5 MB
+
+(the 40 mm run kept its 1600 right-hand sides as dense arrays; they are now solved in blocks of 64.) A complex
+table per frequency doubles the table's memory (41 MB for 40 x 40); the modal form stores per class P phi and
+F phi (N/4 x n_modes) and the static table instead.
+"""
 
 
 def _whole(name: str, value: float, c: float, *, allow_zero: bool) -> int:
@@ -162,7 +229,7 @@ class BlockMesh:
         Depth below the surface meshed uniformly with the top spacing before the vertical grading starts [m].
     """
 
-    per_element: int = 1
+    per_element: int = 2
     growth: float = 1.5
     coarse: float = 2e-3
     element: str = "hexs2"
@@ -171,7 +238,7 @@ class BlockMesh:
     lateral_growth: float = 1.5
     undertread_edge: str = "periodic"
     groove_spacing: float | None = None
-    depth_fine: float = 0.0
+    depth_fine: float = 2e-3
 
     def __post_init__(self):
         if int(self.per_element) != self.per_element or self.per_element < 1:
@@ -564,7 +631,8 @@ def block_static_influence(pattern: TreadPattern, material, mesh: BlockMesh = Bl
     material : tyreroad.material.Material
         Provides ``quasi_static_modulus`` [Pa], ``poisson``, ``density`` and ``thickness`` [m].
     mesh : BlockMesh
-        Mesh layout (default: one 20-node hexahedron per surface element, see :data:`MEASURED`).
+        Mesh layout (default: 2 x 2 20-node hexahedra per surface element, 0.5 mm layers to 2 mm depth; within
+        1 % of the flat layer at a large block's centre, see :data:`MEASURED`).
     field : str
         ``"centre"``: displacement at the field element's centre (greens' convention); ``"mean"``: its mean
         over the field element (a symmetric matrix).
