@@ -144,3 +144,9 @@ def test_modal_form_matches_direct_solves(tread):
         assert np.abs(gm - gd).max() < 0.01 * np.abs(gd).max()
     fr = bm.frequencies(tread)
     assert 2000 < fr[(1, -1)][0] < 3500 and fr[(1, -1)][0] == pytest.approx(fr[(-1, 1)][0], rel=1e-6)
+
+
+def test_static_influence_is_real(tread):
+    pat = fp.TreadPattern(3e-3, 2e-3, 2e-3, 10e-3)
+    xy, g = fp.block_static_influence(pat, tread, fp.BlockMesh(per_element=1, depth_fine=0.0))
+    assert g.dtype == np.float64 and g.shape == (6, 6) and xy.shape == (6, 2)

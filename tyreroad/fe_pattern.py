@@ -568,6 +568,7 @@ class BlockCell:
             ``responder(cls, quarter_sources)`` -> class response (quarter field x sources) used instead of a direct
             solve (:class:`BlockModes`).
         """
+        modal = responder is not None
         if responder is None:
             def responder(cls, q):
                 return self.class_response(cls, modulus, omega, q, field)
@@ -594,7 +595,7 @@ class BlockCell:
         qsrc = ksx * nqy + ksy
         uq, inv = np.unique(qsrc, return_inverse=True)
         out = np.zeros((nx * ny, len(src)), dtype=complex if np.iscomplexobj(modulus) or omega else float)
-        if responder is not None and not (np.iscomplexobj(modulus) or omega):
+        if modal:
             out = out.astype(complex)
         pi, pj = np.divmod(np.arange(nx * ny), ny)
         for cls in self.classes:
