@@ -124,7 +124,8 @@ Published closed form (:func:`gent_lindley_modulus`): the block pressed by a rig
     40 x 40 mm        1.0   2.981 (1 per el.)                 2.542            1.17      1.645
 
 The FE is 17-19 % stiffer than the closed form. Gent & Lindley's formula assumes parabolic bulging of a thin
-block (S >> 1); Horton, Tupholme & Gover (J. Appl. Mech. 69 (2002) 836, doi:10.1115/1.1507769) show that it
+block (S >> 1); Horton, Tupholme & Gover ("Axial loading of bonded rubber blocks", J. Appl. Mech., 2002,
+doi:10.1115/1.1507769) show that it
 underestimates E_a for small S, where the parabolic profile is invalid, so at S = 0.5-1 the closed form is not an
 accurate oracle: the agreement is only of the order of magnitude and the trend with S. The independent FE model
 above is the check that counts.
@@ -793,9 +794,9 @@ def gent_lindley_modulus(length: float, width: float, height: float, poisson: fl
 
     References
     ----------
-    A. N. Gent, P. B. Lindley, "The compression of bonded rubber blocks", Proc. Inst. Mech. Eng. 173 (1959)
-    111-122, doi:10.1243/PIME_PROC_1959_173_022_02; as quoted (Eqs. 1-2) by Kuhelj et al., Strojniški vestnik
-    60 (2014) 506-511, doi:10.5545/sv-jme.2013.1510.
+    A. N. Gent, P. B. Lindley, "The compression of bonded rubber blocks", Proc. Inst. Mech. Eng. 173 (1959) 111;
+    the formula and beta as quoted (Eqs. 1-2) in Strojniški vestnik - J. Mech. Eng. 60 (2014) 506-511,
+    doi:10.5545/sv-jme.2013.1510.
     """
     s = length * width / (2 * (length + width) * height)
     bulk = 1.0 / (3 * (1 - 2 * poisson))
