@@ -142,6 +142,9 @@ def test_modal_form_matches_direct_solves(tread):
         gd = cell.influence(e, w, src)
         gm = bm.influence(e, w, src)
         assert np.abs(gm - gd).max() < 0.01 * np.abs(gd).max()
+    via = fp.block_frequency_response(pat, tread, [5000.0], src, cell=cell, n_modes=30)[0]
+    np.testing.assert_allclose(via, bm.influence(complex(np.ravel(tread.modulus(2 * np.pi * 5000.0))[0]),
+                                                 2 * np.pi * 5000.0, src), rtol=1e-12)
     fr = bm.frequencies(tread)
     assert 2000 < fr[(1, -1)][0] < 3500 and fr[(1, -1)][0] == pytest.approx(fr[(-1, 1)][0], rel=1e-6)
 

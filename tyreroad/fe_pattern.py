@@ -698,7 +698,7 @@ def block_static_influence(pattern: TreadPattern, material, mesh: BlockMesh = Bl
 
 
 def block_frequency_response(pattern: TreadPattern, material, frequencies, sources, mesh: BlockMesh = BlockMesh(),
-                             *, field: str = "centre", cell: BlockCell | None = None):
+                             *, field: str = "centre", cell: BlockCell | None = None, n_modes: int | None = None):
     """Complex influence of chosen source elements on every block element, per frequency.
 
     Solves (E(omega) K_1 - omega^2 M) u = f (exp(+i omega t); Im E > 0, so Im g < 0 for a passive block), the
@@ -721,6 +721,9 @@ def block_frequency_response(pattern: TreadPattern, material, frequencies, sourc
         ``"centre"`` or ``"mean"`` (see :func:`block_static_influence`).
     cell : BlockCell, optional
         A cell built for this pattern and material (reused: assembly once).
+    n_modes : int, optional
+        Use the modal form (:class:`BlockModes`, this many modes per symmetry class plus the static residual)
+        instead of a direct solve per frequency (40 modes: 0.65 % at 5 kHz on a 20 mm block).
 
     Returns
     -------
@@ -735,10 +738,11 @@ def block_frequency_response(pattern: TreadPattern, material, frequencies, sourc
         cell = BlockCell(pattern, material.thickness, material.poisson, material.density, mesh)
     src = np.atleast_1d(np.asarray(sources, dtype=int))
     out = np.empty((f.size, int(np.prod(pattern.shape)), src.size), dtype=complex)
+    modes = BlockModes(cell, n_modes, field) if n_modes else None
     for n, fn in enumerate(f):
         w = 2 * np.pi * fn
         e = complex(material.quasi_static_modulus) if fn == 0 else complex(np.ravel(material.modulus(w))[0])
-        out[n] = cell.influence(e, w, src, field)
+        out[n] = modes.influence(e, w, src) if modes else cell.influence(e, w, src, field)
     return out
 
 
