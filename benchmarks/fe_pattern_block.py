@@ -188,6 +188,29 @@ CASES = {
 }
 
 
+def _summary(r):
+    """One readable line per result (the JSON line follows it)."""
+    if r["case"] == "block":
+        g = r["g"]
+        return (f"# block {r['size'] * 1e3:g} mm groove depth {r['depth'] * 1e3:g} mm per_element {r['pe']} "
+                f"{r['correction']} {r['edge']}: g_ii centre/edge/corner {g['centre']:.4e} {g['edge']:.4e} "
+                f"{g['corner']:.4e} m/N, ratios {r['edge/centre']:.3f} {r['corner/centre']:.3f}, |G-G^T| "
+                f"{100 * r['asym']:.2f} %, {r['dofs']} DOFs/class, {r['time']:.0f} s (factor {r['factor']:.0f}, "
+                f"solve {r['solve']:.0f}), {r['rss']:.2f} GB, table {r['table_MB']:.1f} MB")
+    if r["case"] == "flat":
+        return f"# flat 60 mm block, per_element {r['pe']}: g/g_an - 1 [%] " + " ".join(f"{e:+.2f}" for e in r["err_pct"])
+    if r["case"] == "tet":
+        g = r["g"]
+        return f"# {r['size'] * 1e3:g} mm block, {r['model']}: {g['centre']:.4e} {g['edge']:.4e} {g['corner']:.4e} m/N"
+    if r["case"] == "plate":
+        return (f"# plate {r['size'] * 1e3:g} mm per_element {r['pe']}: E_a/E bonded {r['bonded']:.3f}, frictionless "
+                f"{r['frictionless']:.3f}, Gent & Lindley {r['gent_lindley']:.3f}")
+    if r["case"] == "modal":
+        return (f"# modal {r['size'] * 1e3:g} mm, {r['n_modes']} modes/class: vs direct {r['modal_vs_direct']}, "
+                f"first natural f {{cls: Hz}} { {k: round(v[0]) for k, v in r['natural_f'].items()} }")
+    return "#"
+
+
 def main(argv):
     if argv and argv[0] == "--one":
         spec = json.loads(argv[1])
@@ -205,7 +228,8 @@ def main(argv):
                 print(spec, "FAILED", r.stderr[-2000:], flush=True)
                 continue
             res = json.loads(line[0][7:])
-            res.pop("diag", None) if grp != "block" else None
+            res.pop("diag", None)
+            print(_summary(res), flush=True)
             print(json.dumps(res), flush=True)
 
 

@@ -463,7 +463,7 @@ class BlockCell:
 
     def _element_loads(self, cx, cy) -> sps.csc_matrix:
         """Load vectors of a unit force spread over each surface element (its part inside the model) [N]."""
-        from skfem import FacetBasis, LinearForm, asm
+        from skfem import FacetBasis, LinearForm
 
         m, sb, c = self.mesh, self.basis, self.c
         tol = 1e-9 * c
@@ -479,6 +479,8 @@ class BlockCell:
 
         # one facet assembly; each top facet's entries go to the column of the element containing it
         fb = FacetBasis(m, sb.elem, facets=top, intorder=_INTORDER[self.layout.element])
+        # skfem's per-facet COO data (what ``asm`` sums): one pass instead of a FacetBasis per element; the sums
+        # are checked against 1 N below, so a change of this private API cannot go unnoticed
         (rows,), data, _, _ = pressure._assemble(fb)
         fx, fy = fmid[0, top], fmid[1, top]
         col = np.full(top.size, -1)
