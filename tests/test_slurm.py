@@ -217,7 +217,8 @@ def _check_study_through_slurm(slurm_cluster, tmp_path, local, proc):
     assert set(expected_jobs) == set(CLUSTER_RULES) - {"rolling_greens", "rolling_run", "sensitivity_point",
                                                        "belt_greens", "belt_contact", "belt_stiffness_spectrum",
                                                        "belt_rolling_greens", "belt_rolling_run",
-                                                       "pattern_greens", "pattern_contact", "pattern_grooves_only"}, \
+                                                       "pattern_greens", "pattern_contact", "pattern_grooves_only",
+                                                       "pattern_stiffness_spectrum"}, \
         expected_jobs
 
     cluster = _copy_workflow(tmp_path / "cluster")

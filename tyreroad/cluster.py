@@ -33,7 +33,7 @@ __all__ = ["CLUSTER_RULES", "job_resources", "run_steps", "rolling_pass_steps", 
 CLUSTER_RULES = ("prepare_surface", "element_springs", "greens", "contact", "loading_run", "stiffness_spectrum",
                  "rolling_greens", "rolling_run", "sensitivity_point", "construction_greens", "construction_contact",
                  "belt_greens", "belt_contact", "belt_stiffness_spectrum", "belt_rolling_greens", "belt_rolling_run",
-                 "pattern_greens", "pattern_contact", "pattern_grooves_only")
+                 "pattern_greens", "pattern_contact", "pattern_grooves_only", "pattern_stiffness_spectrum")
 #: Rules that request what another rule of the same work does (the study's comparison constructions, the belt
 #: study and rolling; a belt greens job also fits the belt's model, 10-25 s on the default patch, within the greens
 #: stage's runtime request)
@@ -172,7 +172,16 @@ def _pattern_job(rule: str, config: Mapping[str, Any], wildcards: Mapping[str, A
         blocks = math.ceil(nx / (bx + gw)) * math.ceil(ny / (by + gw)) + 2
     table_mb = 8 * n_table / 1e6
     if rule == "pattern_greens":
-        return _BASE_MB + 3 * table_mb, 10 + 2e-3 * n_offsets
+        if preset is None or section.get("influence", "fe") != "fe":
+            return _BASE_MB + 3 * table_mb, 10 + 2e-3 * n_offsets
+        # the FE cell model (tyreroad.fe_pattern, 2 x 2 hexahedra per element): measured 1.4 GB / 60 s for a 20 x 20
+        # block (N = 400) and 7.5 GB / 1010 s for 40 x 40 (N = 1600) on one core; DOFs grow with N, the factors and
+        # the N right-hand sides faster
+        return _BASE_MB + 1.7 * n_block * (1 + n_block / 800) + 3 * table_mb, 30 + 4.5e-4 * n_block**2
+    if rule == "pattern_stiffness_spectrum":
+        # the greens job's assembly and factorisations again, the eigen-decomposition of every symmetry class
+        # (measured 114 s for 40 modes on a 20 x 20 block) and one direct complex frequency (80 s)
+        return _BASE_MB + 1.7 * n_block * (1 + n_block / 800) + 3 * table_mb, 200 + 1.5e-3 * n_block**2
     steps = uniform_grid_steps(float(config["solver"]["d_max"]), float(config["solver"]["quasistatic_step"]))
     output = steps * nx * ny * 8 * 6 / 1e6
     if preset is None and solver_path(config, nx * ny, steps, False) == "fft":
@@ -265,7 +274,7 @@ def job_resources(rule: str, config: Mapping[str, Any], wildcards: Mapping[str, 
         nx, ny = _elements(config, config["study"]["surface"])
         m = nx * ny
         mem, seconds = _BASE_MB + 0.4 * m, 0.06 * m
-    elif rule in ("pattern_greens", "pattern_contact", "pattern_grooves_only"):
+    elif rule in ("pattern_greens", "pattern_contact", "pattern_grooves_only", "pattern_stiffness_spectrum"):
         mem, seconds = _pattern_job(rule, config, wildcards)
     elif rule in ("greens", "rolling_greens"):
         kernel = _kernel_mb(config, rolling=rule == "rolling_greens")

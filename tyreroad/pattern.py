@@ -305,7 +305,8 @@ class PatchInfluence:
     layout : PatchLayout
         The patch on the pattern.
     block_table : array_like
-        G_b [m/N], shape (N, N), N = the block's elements (symmetric: the layer's static influence is).
+        G_b [m/N], shape (N, N), N = the block's elements: real (static) or complex (the block's FRF at one
+        frequency, :mod:`tyreroad.pattern_spectrum`).
 
     Attributes
     ----------
@@ -314,7 +315,10 @@ class PatchInfluence:
     """
 
     def __init__(self, layout: PatchLayout, block_table):
-        g = checks.finite_array("block_table", block_table, ndim=2)
+        g = np.asarray(block_table)
+        g = g.astype(complex if np.iscomplexobj(g) else float)
+        if g.ndim != 2 or not np.all(np.isfinite(g)):
+            raise ValueError(f"block_table: expected a finite 2-D array, got shape {g.shape}")
         n = math.prod(layout.geometry.block_elements)
         if g.shape != (n, n):
             raise ValueError(f"block_table: expected shape ({n}, {n}) for a {layout.geometry.block_elements} block of "
@@ -322,8 +326,8 @@ class PatchInfluence:
         self.layout = layout
         self.shape = layout.shape
         self.table = g
-        self.g_self = float(np.max(np.diag(g)))
-        self.complex = False
+        self.complex = bool(np.iscomplexobj(g))
+        self.g_self = g[np.argmax(np.abs(np.diag(g)))] if self.complex else float(np.max(np.diag(g)))
         self.even = bool(np.array_equal(g, g.T))
         # per block: patch indices and the block table restricted to them (a cut block keeps its inside part)
         self._blocks = [(idx, loc, np.ascontiguousarray(g[np.ix_(loc, loc)])) for idx, loc in layout.blocks]
@@ -342,7 +346,7 @@ class PatchInfluence:
     def matrix(self) -> np.ndarray:
         """The dense M x M matrix G [m/N] (tests and small patches only: M^2 memory)."""
         m = math.prod(self.shape)
-        out = np.zeros((m, m))
+        out = np.zeros((m, m), dtype=self.table.dtype)
         for idx, _, gb in self._blocks:
             out[np.ix_(idx, idx)] = gb
         return out
@@ -356,16 +360,17 @@ class PatchInfluence:
         out[(bi[:, None] != bi[None, :]) | (bi[:, None] < 0)] = 0.0
         return out
 
-    def stiffness(self, stiffness) -> float:
-        """K = 1^T [G_C + diag(1/k)]^-1 1 [N/m]: the sum over blocks of their contact sets' stiffness."""
+    def stiffness(self, stiffness):
+        """K = 1^T [G_C + diag(1/k)]^-1 1 [N/m]: the sum over blocks of their contact sets' stiffness (complex
+        K* for a complex table, the block's FRF at one frequency)."""
         k = np.asarray(stiffness, dtype=float).ravel()
         total = 0.0
         for idx, _, gb in self._blocks:
             ka = k[idx]
             act = np.flatnonzero(ka)
             if act.size:
-                total += float(contact_set_solve(gb[np.ix_(act, act)], np.sqrt(ka[act])))
-        return total
+                total += contact_set_solve(gb[np.ix_(act, act)], np.sqrt(ka[act]))
+        return complex(total) if self.complex else float(total)
 
 
 class PatternSubstrate:
@@ -762,3 +767,21 @@ def check_pattern_config(config: Mapping[str, Any]) -> None:
                 f"pattern.patch_origin = {list(origin)!r} m: the patch of surfaces.{surface}.patch_elements = "
                 f"{list(shape)} holds no whole {n_x} x {n_y}-element block of pattern {name!r}; expected a patch "
                 f"(and origin) that holds at least one whole block")
+    spectrum = section.get("stiffness_spectrum") or {}
+    for i, name in enumerate(spectrum.get("patterns", [])):
+        if name not in presets:
+            raise ValueError(f"pattern.stiffness_spectrum.patterns[{i}] = {name!r}: expected a preset in pattern.presets "
+                             f"({', '.join(sorted(presets))})")
+    if spectrum.get("patterns") and section.get("influence", "fe") != "fe":
+        raise ValueError(f"pattern.stiffness_spectrum.patterns = {spectrum['patterns']!r} with pattern.influence = "
+                         f"{section.get('influence')!r}: expected influence 'fe' (K*(f) needs the FE block's FRF)")
+    preloads = [float(d) for d in spectrum.get("preloads", [1.0e-4])]
+    if any(b <= a for a, b in zip(preloads, preloads[1:])):
+        raise ValueError(f"pattern.stiffness_spectrum.preloads = {preloads!r}: expected increasing preloads [m]")
+    d_max = float(config["solver"]["d_max"])
+    if preloads and preloads[-1] > d_max:
+        raise ValueError(f"pattern.stiffness_spectrum.preloads = {preloads!r} m: expected preloads up to solver.d_max "
+                         f"= {d_max:g} m (the springs' tables end there)")
+    f_min, f_max = float(spectrum.get("f_min", 10.0)), float(spectrum.get("f_max", 5000.0))
+    if not f_min < f_max:
+        raise ValueError(f"pattern.stiffness_spectrum.f_max = {f_max:g} Hz: expected above f_min = {f_min:g} Hz")

@@ -981,6 +981,41 @@ def run_pattern_contact(
     io.write_dataset(ds, out_nc, provenance, stage="pattern_contact", surface=surface_name, material=material_name)
 
 
+def run_pattern_stiffness_spectrum(
+    surface_nc: str | Path,
+    springs_nc: str | Path,
+    greens_nc: str | Path,
+    slick_nc: str | Path,
+    surface_name: str,
+    material_name: str,
+    material_cfg: Mapping[str, Any],
+    patch_origin: Sequence[float],
+    solver_cfg: Mapping[str, Any],
+    spectrum_cfg: Mapping[str, Any],
+    out_nc: str | Path,
+    threads: int = 1,
+) -> None:
+    """Stage ``pattern_stiffness_spectrum``: K*(f; d0) on a patterned tread and on the slick tread of the same patch
+    (:func:`tyreroad.pattern_spectrum.pattern_stiffness_spectrum`)."""
+    from .contact import SolverSettings
+    from .pattern_spectrum import pattern_stiffness_spectrum
+    from .stiffness import frequency_grid
+
+    settings = SolverSettings.from_config(solver_cfg)
+    cfg = dict(spectrum_cfg or {})
+    f_max = float(cfg.get("f_max", 5000.0))
+    freq = frequency_grid(float(cfg.get("f_min", 10.0)), f_max, int(cfg.get("n_frequencies", 31)),
+                          [f for f in (100.0, 1000.0) if f < f_max])
+    ds = pattern_stiffness_spectrum(
+        io.read_dataset(surface_nc), io.read_dataset(springs_nc, SPRING_TABLES), io.read_dataset(greens_nc),
+        io.read_dataset(slick_nc), _material(material_name, material_cfg), [float(d) for d in cfg.get("preloads",
+        [1.0e-4])], freq, settings, int(cfg.get("n_modes", 40)), tuple(patch_origin), threads)
+    provenance = {"solver": dict(solver_cfg), "patch_origin": list(patch_origin), "stiffness_spectrum": cfg,
+                  "material": {material_name: dict(material_cfg)}}
+    io.write_dataset(ds, out_nc, provenance, stage="pattern_stiffness_spectrum", surface=surface_name,
+                     material=material_name)
+
+
 def run_pattern_study(
     contact_ncs: Sequence[str | Path], greens_ncs: Sequence[str | Path], study_cfg: Mapping[str, Any], d_max: float,
     out_nc: str | Path,
@@ -995,8 +1030,10 @@ def run_pattern_study(
     io.write_dataset(ds, out_nc, {"study": dict(study_cfg), "d_max": d_max}, stage="pattern_study")
 
 
-def run_pattern_report(study_nc: str | Path, out_md: str | Path) -> None:
-    """Stage ``pattern_report``: the pattern study's section as ``pattern.md``."""
+def run_pattern_report(study_nc: str | Path, out_md: str | Path, spectrum_ncs: Sequence[str | Path] = ()) -> None:
+    """Stage ``pattern_report``: the pattern study's section (and K*(f; d0) of the analysed patterns) as
+    ``pattern.md``."""
     from .report.pattern import write_pattern_report
 
-    write_pattern_report(io.read_dataset(study_nc), out_md, source=str(study_nc))
+    write_pattern_report(io.read_dataset(study_nc), out_md, source=str(study_nc),
+                         spectra=[io.read_dataset(p) for p in spectrum_ncs])

@@ -52,6 +52,7 @@ STAGE_MODULES: dict[str, tuple[str, ...]] = {
     "pattern_greens": ("log", "pipeline", "pattern", "pattern_stage", "material"),
     "pattern_contact": ("log", "pipeline", "pattern", "contact"),
     "pattern_study": ("log", "pipeline", "pattern", "study"),
+    "pattern_stiffness_spectrum": ("log", "pipeline", "pattern_spectrum", "material"),
     "pattern_report": ("log", "pipeline", "report.pattern"),
 }
 

@@ -9,6 +9,7 @@ greens and contact stages.
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Sequence
 
 import numpy as np
 import xarray as xr
@@ -16,7 +17,7 @@ import xarray as xr
 from .claims import THRESHOLDS, count_growth_peak, saturation_change
 from .document import write_report
 
-__all__ = ["pattern_section", "build_pattern_report", "write_pattern_report"]
+__all__ = ["pattern_section", "spectrum_section", "build_pattern_report", "write_pattern_report"]
 
 _SLICK = "slick"  # tyreroad.pattern.SLICK (not imported: the report does not run the contact code)
 
@@ -108,12 +109,52 @@ def pattern_section(ds: xr.Dataset) -> list[str]:
     return lines
 
 
-def build_pattern_report(ds: xr.Dataset, source: str = "") -> str:
-    """``pattern.md``: the title, the source and :func:`pattern_section`."""
+def spectrum_section(spectra: Sequence[xr.Dataset], frequencies=(100.0, 1000.0, 5000.0)) -> list[str]:
+    """K*(f; d0) on the patterned treads beside the slick tread (:mod:`tyreroad.pattern_spectrum`)."""
+    if not spectra:
+        return []
+    lines = ["## K*(f; d0) on the patterned tread", "",
+             "The contact stiffness about the relaxed preload state, K* = 1^T [G_C(f) + diag(1/k_e)]^-1 1, with the "
+             "block's FE frequency response in modal form (checked against a direct complex solve at the highest "
+             "frequency) beside the slick tread's element FRF on the same patch and springs.", "",
+             "| material / pattern | d0 [mm] | case | contact | " + " | ".join(
+                 f"K'({f:g} Hz) [MN/m] | eta({f:g} Hz)" for f in frequencies) + " |",
+             "|---|---|---|---|" + "---|---|" * len(frequencies)]
+    notes = []
+    for ds in spectra:
+        avail = ds["frequency"].values
+        use = [f for f in frequencies if np.any(np.isclose(avail, f))]
+        for d0 in ds["preload"].values:
+            for case in ds["case"].values:
+                k1 = ds["k_storage"].sel(case=case, preload=d0)
+                k2 = ds["k_loss"].sel(case=case, preload=d0)
+                cells = []
+                for f in frequencies:
+                    if f in use:
+                        i = int(np.argmin(np.abs(avail - f)))
+                        cells.append(f"{float(k1[i]) / 1e6:.3f} | {float(k2[i] / k1[i]):.3f}")
+                    else:
+                        cells.append("- | -")
+                count = int(ds["contact_count"].sel(case=case, preload=d0))
+                lines.append(f"| {ds.attrs['material']} / {ds.attrs['pattern']} | {d0 * 1e3:.3g} | {case} | {count} | "
+                             + " | ".join(cells) + " |")
+        nat = ds["natural_frequency"]
+        lowest = ", ".join(f"{c} {float(nat.sel(symmetry_class=c).values[0]):.0f} Hz"
+                           for c in nat["symmetry_class"].values)
+        notes.append(f"- {ds.attrs['pattern']} ({ds.attrs['material']}): lowest block modes per symmetry class (undamped, "
+                     f"Re E(f)): {lowest}. Modal form ({int(ds.attrs['n_modes'])} modes per class) against a direct "
+                     f"solve at {float(ds.attrs['modal_check_frequency']):g} Hz: {float(ds.attrs['modal_error']):.2%} "
+                     f"(limit {float(ds.attrs['modal_tolerance']):.0%}); eigen-decomposition "
+                     f"{float(ds.attrs['modes_time_s']):.0f} s, job {float(ds.attrs['compute_time_s']):.0f} s.")
+    return lines + [""] + notes + [""]
+
+
+def build_pattern_report(ds: xr.Dataset, source: str = "", spectra: Sequence[xr.Dataset] = ()) -> str:
+    """``pattern.md``: the title, the source, :func:`pattern_section` and :func:`spectrum_section`."""
     head = ["# tyreroad: patterned treads", ""] + ([f"Source: `{source}`", ""] if source else [])
-    return "\n".join(head + pattern_section(ds)[0:]) + "\n"
+    return "\n".join(head + pattern_section(ds) + spectrum_section(spectra)) + "\n"
 
 
-def write_pattern_report(ds: xr.Dataset, path: str | Path, source: str = "") -> Path:
+def write_pattern_report(ds: xr.Dataset, path: str | Path, source: str = "", spectra: Sequence[xr.Dataset] = ()) -> Path:
     """Write ``pattern.md`` atomically."""
-    return write_report(build_pattern_report(ds, source), path)
+    return write_report(build_pattern_report(ds, source, spectra), path)

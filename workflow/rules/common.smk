@@ -415,6 +415,13 @@ def pattern_greens_files():
     return [f"{R}/greens/pattern/{p}/{m}.nc" for m, p in pattern_cases()]
 
 
+def pattern_spectra():
+    """K*(f; d0) of every pattern.materials on every pattern.stiffness_spectrum.patterns."""
+    names = (PATTERN.get("stiffness_spectrum") or {}).get("patterns", [])
+    return [f"{R}/pattern/stiffness_spectrum/{PATTERN_SURFACE}/{m}/{p}.nc" for m in PATTERN.get("materials", [])
+            for p in names]
+
+
 def pattern_targets():
     if not PATTERN.get("presets"):
         return []

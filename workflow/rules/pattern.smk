@@ -91,9 +91,37 @@ rule pattern_study:
         "../scripts/pattern_study.py"
 
 
+rule pattern_stiffness_spectrum:
+    input:
+        surface=f"{R}/surface/{{surface}}.nc",
+        springs=f"{R}/springs/{{surface}}/{{material}}.nc",
+        greens=f"{R}/greens/pattern/{{pattern}}/{{material}}.nc",
+        slick=f"{R}/greens/pattern/slick/{{material}}.nc",
+    output:
+        nc=f"{R}/pattern/stiffness_spectrum/{{surface}}/{{material}}/{{pattern}}.nc",
+    log:
+        f"{R}/logs/pattern/stiffness_spectrum/{{surface}}/{{material}}/{{pattern}}.log",
+    benchmark:
+        f"{R}/benchmarks/pattern/stiffness_spectrum/{{surface}}/{{material}}/{{pattern}}.tsv"
+    params:
+        check=pattern_preset,
+        material=resolved_material,
+        origin=PATTERN.get("patch_origin", [0.0, 0.0]),
+        solver=config["solver"],
+        spectrum=PATTERN.get("stiffness_spectrum", {}),
+        code=SOURCE["pattern_stiffness_spectrum"],
+    threads: 1
+    resources:
+        mem_mb=lambda w, attempt: cluster_resources("pattern_stiffness_spectrum", config, w, attempt)["mem_mb"],
+        runtime=lambda w, attempt: cluster_resources("pattern_stiffness_spectrum", config, w, attempt)["runtime"],
+    script:
+        "../scripts/pattern_stiffness_spectrum.py"
+
+
 rule pattern_report:
     input:
         study=f"{R}/pattern/study.nc",
+        spectra=pattern_spectra(),
     output:
         md=f"{R}/pattern.md",
     log:
