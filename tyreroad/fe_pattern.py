@@ -166,7 +166,10 @@ Cost (static, all N sources, 4 symmetry classes, one core of a shared machine):
     block         per_element  DOFs/class  assembly  factor (4x)  solve (N RHS)  total    peak RSS  table N^2 x 8 B
     20 x 20 mm    1             7.9 k        0.4 s      2.0 s       1.4 s          4 s     0.28 GB    1.3 MB
     20 x 20 mm    2            45 k          1.7 s     43 s        14 s           60 s     1.4 GB     1.3 MB
-    40 x 40 mm    1            30 k          1.6 s     16 s        29 s           48 s     ~0.6 GB   20.5 MB
+    20 x 20 mm    2            51 k          1.9 s     55 s        15 s           73 s     1.5 GB     1.3 MB
+      (grooves 6 mm deep, undertread)
+    20 x 20 mm    3           134 k          9.0 s    323 s        59 s          395 s     4.7 GB     1.3 MB
+    40 x 40 mm    1            30 k          1.6 s     16 s        29 s           48 s     1.2 GB    20.5 MB
     40 x 40 mm    2           177 k         15 s      568 s       421 s         1010 s     7.5 GB    20.5 MB
 
 (the 40 mm run kept its 1600 right-hand sides as dense arrays; they are now solved in blocks of 64.) A complex
