@@ -87,9 +87,9 @@ the point value at its centre is poorly resolved); two per element with the unif
 (Hex S2, full integration, ``per_element=2``, ``depth_fine=2e-3``, growth 1.5 to 2 mm).
 
 Difference correction (``correction="difference"``, G_an(offset) + G_FE,block - G_FE,flat(offset) on the same mesh)
-does not rescue the one-per-element mesh: on the 20 mm block it brings the centre to the flat layer (3.271e-5
-against 3.260e-5 m/N with 2 per element) but leaves the edge and corner 4.6 % and 5.7 % off (5.717e-5 / 9.236e-5
-against 5.465e-5 / 8.737e-5): the discretisation error at the edge is not the flat one. Not used by default.
+does not rescue the one-per-element mesh: on the 20 mm block it gets the centre right (3.271e-5 against 3.268e-5
+m/N with 3 per element) but leaves the edge and corner 4.0 % and 5.4 % off (5.717e-5 / 9.236e-5 against 5.496e-5
+/ 8.762e-5): the discretisation error at the edge is not the flat one. Not used by default.
 
 Edge softening (must-show 2), static g_ii [m/N], full-depth grooves (free-standing blocks), 2 per element:
 
