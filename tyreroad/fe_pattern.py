@@ -87,9 +87,9 @@ the point value at its centre is poorly resolved); two per element with the unif
 (Hex S2, full integration, ``per_element=2``, ``depth_fine=2e-3``, growth 1.5 to 2 mm).
 
 Difference correction (``correction="difference"``, G_an(offset) + G_FE,block - G_FE,flat(offset) on the same mesh)
-does not rescue the one-per-element mesh: on the 20 mm block it brings the centre to the flat layer (3.271e-5
-against 3.260e-5 m/N with 2 per element) but leaves the edge and corner 4.6 % and 5.7 % off (5.717e-5 / 9.236e-5
-against 5.465e-5 / 8.737e-5): the discretisation error at the edge is not the flat one. Not used by default.
+does not rescue the one-per-element mesh: on the 20 mm block it gets the centre right (3.271e-5 against 3.268e-5
+m/N with 3 per element) but leaves the edge and corner 4.0 % and 5.4 % off (5.717e-5 / 9.236e-5 against 5.496e-5
+/ 8.762e-5): the discretisation error at the edge is not the flat one. Not used by default.
 
 Edge softening (must-show 2), static g_ii [m/N], full-depth grooves (free-standing blocks), 2 per element:
 
@@ -98,17 +98,25 @@ Edge softening (must-show 2), static g_ii [m/N], full-depth grooves (free-standi
     40 x 40 mm  177 k    3.235e-5    5.423e-5     8.728e-5    1.676        2.698
     20 x 20 mm,   51 k    3.238e-5    5.336e-5     8.405e-5    1.648        2.596
       grooves 6 mm deep (4 mm undertread), periodic cell
-    (the flat layer's g(0,0) = 3.27e-5 m/N)
+    (the flat layer's analytic g(0,0) = 3.243e-5 m/N: the 20 mm block's centre is 0.5 % (0.8 % on the finest
+    mesh) softer than the flat layer, the 40 mm block's within the mesh error of it)
 
 Undertread's cell boundary (20 mm block, 5 mm grooves 6 mm deep): a traction-free outer edge instead of the
 periodic array's mirror conditions raises g_ii by +0.37 % (centre), +0.40 % (edge), +0.40 % (corner) and moves
 the ratios by 0.03 %: with 2.5 mm of undertread beyond the block side and 4 mm undertread thickness the neighbour
 blocks hardly matter statically. The periodic array (identical blocks, identically loaded) is the default.
 
-Mesh convergence of the same quantities (20 mm block): 1 per element 2.489e-5 / 4.936e-5 / 8.454e-5 (ratios
-1.98 / 3.40), 2 per element as above, 3 per element: see CONVERGENCE below. On a 4 x 4 mm block (cheap enough
-for three meshes) 2 -> 3 per element changes g_ii by +0.14 / +0.29 / +0.16 % (centre / edge / corner) and the
-ratios by +0.16 / +0.03 %.
+Mesh convergence, 20 x 20 mm block, full-depth grooves (base mesh and two refinements of the top, the depth
+layers refined with it):
+
+    per_element  DOFs/class  centre     edge-centre  corner     edge/centre  corner/centre  time    peak RSS
+    1              7.9 k     2.489e-5   4.936e-5     8.454e-5   1.983        3.396            4 s   0.28 GB
+    2             45 k       3.260e-5   5.465e-5     8.737e-5   1.676        2.680           60 s   1.4 GB
+    3            134 k       3.268e-5   5.496e-5     8.762e-5   1.682        2.681          395 s   4.7 GB
+
+2 -> 3 per element: +0.25 / +0.58 / +0.28 % on g_ii, +0.35 / +0.04 % on the ratios (|G - G^T| 0.45 -> 0.33 %).
+On a 4 x 4 mm block 2 -> 3 changes g_ii by +0.14 / +0.29 / +0.16 % and the ratios by +0.16 / +0.03 %. The
+default mesh is about 0.5 % too stiff at the edge-centre element, 0.3 % elsewhere.
 
 Independent model (:func:`tet_reference_influence`: skfem's own vector ``linear_elasticity`` form on quadratic
 tetrahedra, whole block without symmetry, another mesh): 4 x 4 x 10 mm block, g_ii centre / edge / corner [1e-5 m/N]
@@ -159,7 +167,10 @@ Cost (static, all N sources, 4 symmetry classes, one core of a shared machine):
     block         per_element  DOFs/class  assembly  factor (4x)  solve (N RHS)  total    peak RSS  table N^2 x 8 B
     20 x 20 mm    1             7.9 k        0.4 s      2.0 s       1.4 s          4 s     0.28 GB    1.3 MB
     20 x 20 mm    2            45 k          1.7 s     43 s        14 s           60 s     1.4 GB     1.3 MB
-    40 x 40 mm    1            30 k          1.6 s     16 s        29 s           48 s     ~0.6 GB   20.5 MB
+    20 x 20 mm    2            51 k          1.9 s     55 s        15 s           73 s     1.5 GB     1.3 MB
+      (grooves 6 mm deep, undertread)
+    20 x 20 mm    3           134 k          9.0 s    323 s        59 s          395 s     4.7 GB     1.3 MB
+    40 x 40 mm    1            30 k          1.6 s     16 s        29 s           48 s     1.2 GB    20.5 MB
     40 x 40 mm    2           177 k         15 s      568 s       421 s         1010 s     7.5 GB    20.5 MB
 
 (the 40 mm run kept its 1600 right-hand sides as dense arrays; they are now solved in blocks of 64.) A complex
