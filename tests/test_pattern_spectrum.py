@@ -16,6 +16,7 @@ from tyreroad.fe_pattern import BlockCell, BlockMesh
 from tyreroad.material import material_from_config
 from tyreroad.pattern import kernel_from_pattern_greens
 from tyreroad.pattern_spectrum import pattern_stiffness_spectrum
+from tyreroad.pattern_stage import tread_pattern
 from tyreroad.solver import SolverSettings
 
 PRESET = {"block_length": 0.004, "block_width": 0.003, "groove_width": 0.001, "groove_depth": 0.01}
@@ -84,7 +85,7 @@ def test_pattern_k_star_equals_a_dense_solve_with_the_direct_block_frf(case):
     active = np.flatnonzero(k)
     f = 3000.0
     w = 2 * math.pi * f
-    cell = BlockCell(layout.geometry.tread_pattern(), material.thickness, material.poisson, material.density,
+    cell = BlockCell(tread_pattern(layout.geometry), material.thickness, material.poisson, material.density,
                      BlockMesh())
     g_block = cell.influence(complex(np.ravel(material.modulus(w))[0]), w)
     dense = PatchInfluence(layout, g_block).matrix()[np.ix_(active, active)]

@@ -174,13 +174,6 @@ class PatternGeometry:
         ix, iy = np.divmod(np.arange(n_x * n_y), n_y)
         return np.stack([(ix + 0.5) * self.element_size, (iy + 0.5) * self.element_size], axis=1)
 
-    def tread_pattern(self):
-        """The FE cell model's geometry (:class:`tyreroad.fe_pattern.TreadPattern`) of this preset."""
-        from .fe_pattern import TreadPattern
-
-        return TreadPattern(self.block_length, self.block_width, self.groove_width, self.groove_depth,
-                            self.element_size)
-
     def config(self) -> dict[str, float]:
         """The preset as config (SI units)."""
         return {"block_length": self.block_length, "block_width": self.block_width,

@@ -127,6 +127,7 @@ def pattern_stiffness_spectrum(surface: xr.Dataset, springs: xr.Dataset, pattern
     from .contact import preload_states
     from .fe_pattern import BlockCell, BlockMesh, BlockModes
     from .greens import ElementFRF
+    from .pattern_stage import tread_pattern
     from .springs import SpringTable
     from .stiffness import _contact_set_spectrum
 
@@ -147,7 +148,7 @@ def pattern_stiffness_spectrum(surface: xr.Dataset, springs: xr.Dataset, pattern
     table = SpringTable.checked(table.stiffness, table.force, table.zeta_step, z1.size)
     grooved_table = groove_springs(table, layout.grooved)
 
-    cell = BlockCell(geometry.tread_pattern(), material.thickness, material.poisson, material.density, BlockMesh())
+    cell = BlockCell(tread_pattern(geometry), material.thickness, material.poisson, material.density, BlockMesh())
     modes = BlockModes(cell, int(n_modes))
     t_modes = time.perf_counter() - t0
     sources = block_check_sources(geometry)

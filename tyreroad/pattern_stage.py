@@ -20,7 +20,7 @@ from .pattern import PATTERN_INFLUENCES, SLICK, PatternGeometry
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["fe_block_influence", "standin_block_influence", "pattern_greens_dataset", "slick_greens_dataset"]
+__all__ = ["tread_pattern", "fe_block_influence", "standin_block_influence", "pattern_greens_dataset", "slick_greens_dataset"]
 
 
 def _static_offset_table(shape, element_size: float, material) -> np.ndarray:
@@ -58,6 +58,18 @@ def standin_block_influence(pattern: PatternGeometry, material) -> tuple[np.ndar
     return pattern.element_centres(), offset_matrix(table)
 
 
+def tread_pattern(geometry: PatternGeometry):
+    """The FE cell model's geometry (:class:`tyreroad.fe_pattern.TreadPattern`) of a pattern preset.
+
+    Kept here, not as a method of :class:`~tyreroad.pattern.PatternGeometry`: the contact runs import
+    :mod:`tyreroad.pattern`, and must not depend on the FE code (a change there would re-run them).
+    """
+    from .fe_pattern import TreadPattern
+
+    return TreadPattern(geometry.block_length, geometry.block_width, geometry.groove_width, geometry.groove_depth,
+                        geometry.element_size)
+
+
 def fe_block_influence(pattern: PatternGeometry, material) -> tuple[np.ndarray, np.ndarray, str]:
     """The block's static influence from the FE cell model (:func:`tyreroad.fe_pattern.block_static_influence`,
     its default mesh), with a note on the model for the file.
@@ -74,10 +86,10 @@ def fe_block_influence(pattern: PatternGeometry, material) -> tuple[np.ndarray, 
     from .fe_pattern import BlockMesh, block_static_influence
 
     mesh = BlockMesh()
-    xy, g = block_static_influence(pattern.tread_pattern(), material, mesh)
+    xy, g = block_static_influence(tread_pattern(pattern), material, mesh)
     asym = float(np.max(np.abs(g - g.T)) / np.max(np.abs(g)))
     note = (f"FE cell model (tyreroad.fe_pattern): one block on the rigid belt, {mesh.per_element} x {mesh.per_element} "
-            f"{mesh.element} hexahedra per surface element, grooves {'to the belt' if not pattern.tread_pattern().has_undertread(material.thickness) else 'over an undertread, periodic cell'}; "
+            f"{mesh.element} hexahedra per surface element, grooves {'to the belt' if not tread_pattern(pattern).has_undertread(material.thickness) else 'over an undertread, periodic cell'}; "
             f"displacement at element centres (greens' convention), so G is reciprocal only to {asym:.1e} of max|G|")
     return xy, g, note
 
