@@ -584,11 +584,17 @@ class BlockCell:
             P = (loads @ sps.diags(mult)).T.tocsr()
         else:
             raise ValueError(f"field must be 'centre' or 'mean', got {field!r}")
+        log.info("block %s, symmetry class %s: %d DOFs factorised in %.1f s (%s, f = %.4g Hz); %d right-hand sides",
+                 "x".join(str(n) for n in self.pattern.shape), cls, a.shape[0], t1 - t0,
+                 "complex" if np.iscomplexobj(a) else "real", omega / (2 * np.pi), len(src))
         out = np.zeros((P.shape[0], len(src)), dtype=a.dtype)
         for k in range(0, len(src), 64):  # right-hand sides in blocks: the dense n_dofs x N arrays cost GBs
             part = src[k:k + 64]
             rhs = (loads[:, part] @ sps.diags(mult[part])).toarray().astype(a.dtype)
             out[:, k:k + 64] = P @ lu.solve(rhs)
+            if len(src) > 256 and (k // 64) % 4 == 3:
+                log.info("  %d of %d right-hand sides solved (%.0f s)", min(k + 64, len(src)), len(src),
+                         time.perf_counter() - t1)
         self.factor_time += t1 - t0
         self.solve_time += time.perf_counter() - t1
         return np.asarray(out)
@@ -988,7 +994,10 @@ class BlockModes:
             lu = spla.splu(K, permc_spec="NATURAL", diag_pivot_thresh=0.0, options={"SymmetricMode": True})
             op = spla.LinearOperator(K.shape, matvec=lu.solve, dtype=float)
             k = min(int(n_modes), K.shape[0] - 2)
+            t1 = time.perf_counter()
             lam, phi = spla.eigsh(K, k=k, M=M, sigma=0.0, which="LM", OPinv=op)
+            log.info("block modes, symmetry class %s: %d DOFs, %d modes in %.1f s", cls, K.shape[0], k,
+                     time.perf_counter() - t1)
             mult = cell._multiplicity(cls)
             F = (Tt @ cell.loads) @ sps.diags(mult)
             P = (cell.probes @ T) if field == "centre" else F.T
