@@ -184,7 +184,7 @@ def pattern_stiffness_spectrum(surface: xr.Dataset, springs: xr.Dataset, pattern
     for c in names:
         states = cases[c][0]
         logger.info("%s: d0 %s mm, contact %s, K*(f -> 0) / K_qs - 1 = %s", c,
-                    ", ".join(f"{d * 1e3:.3g}" for d in states.preload), list(states.contact_count),
+                    ", ".join(f"{d * 1e3:.3g}" for d in states.preload), [int(n) for n in states.contact_count],
                     ", ".join(f"{v:.1e}" for v in cases[c][1][:, 0].real / states.tangent_stiffness - 1))
 
     # class (a, b): the mode's parity about the block's x and y mid-planes (+1 even, -1 odd)
