@@ -28,7 +28,7 @@ def test_pattern_validation_names_the_field():
         fp.TreadPattern(20.5e-3, 20e-3, 5e-3, 10e-3)
     with pytest.raises(ValueError, match="groove_width.*whole multiple"):
         fp.TreadPattern(20e-3, 20e-3, 2.5e-3, 10e-3)
-    with pytest.raises(ValueError, match="block_width.*> 0"):
+    with pytest.raises(ValueError, match="TreadPattern.block_width = 0.0 m: expected a positive whole multiple"):
         fp.TreadPattern(20e-3, 0.0, 5e-3, 10e-3)
     with pytest.raises(ValueError, match="groove_depth.*>= 0"):
         fp.TreadPattern(20e-3, 20e-3, 5e-3, -1e-3)
@@ -153,3 +153,14 @@ def test_static_influence_is_real(tread):
     pat = fp.TreadPattern(3e-3, 2e-3, 2e-3, 10e-3)
     xy, g = fp.block_static_influence(pat, tread, fp.BlockMesh(per_element=1, depth_fine=0.0))
     assert g.dtype == np.float64 and g.shape == (6, 6) and xy.shape == (6, 2)
+
+
+def test_each_element_load_is_one_newton_normal():
+    """The load vectors (assembled through skfem's facet forms) put 1 N on each surface element, normal to the
+    surface: a change in skfem's assembly that scaled or misplaced them would change every table by that factor."""
+    cell = fp.BlockCell(fp.TreadPattern(4e-3, 3e-3, 1e-3, 10e-3), 0.01, 0.49, 1100.0, fp.BlockMesh(), symmetry=False)
+    loads = cell.loads.tocsc()
+    np.testing.assert_allclose(np.asarray(loads.sum(axis=0)).ravel(), 1.0, rtol=1e-12)
+    rows = np.unique(loads.nonzero()[0])
+    n_scalar = loads.shape[0] // 3  # the vector's DOFs are the scalar ones per component: x block, y block, z block
+    assert rows.min() >= 2 * n_scalar  # only u_z degrees of freedom

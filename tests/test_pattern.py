@@ -215,24 +215,29 @@ def _attrs(units, long_name):
     return {"units": units, "long_name": long_name}
 
 
+def stage_datasets(nx, ny, seed=5):
+    """A synthetic surface and spring tables as the stages read them: (surface, springs, SpringTable)."""
+    import xarray as xr
+
+    rng = np.random.default_rng(seed)
+    z1 = _z1(nx, ny, rng)
+    table = _springs(nx * ny, rng, step=2e-6)
+    surface = xr.Dataset({"z1": (("ex", "ey"), z1, _attrs("m", "element peak height"))}, attrs={"element_size": C})
+    springs = xr.Dataset(
+        {"stiffness": (("ex", "ey", "zeta"), table.stiffness.reshape(nx, ny, -1), _attrs("N/m", "k")),
+         "force": (("ex", "ey", "zeta"), table.force.reshape(nx, ny, -1), _attrs("N", "F"))},
+        coords={"zeta": ("zeta", np.arange(table.stiffness.shape[1]) * table.zeta_step, _attrs("m", "compression"))})
+    return surface, springs, table
+
+
 def test_pattern_stages_end_to_end(tmp_path):
     """The stage functions on a 12 x 9 patch: greens (pattern and slick), runs, study and report. The study's K_sat
     uses the study's definitions; grooves carry no force; the report names every case."""
-    import xarray as xr
-
     from tyreroad import io, pipeline
 
     cfg = load_config("config/config.yaml")
     nx, ny = 12, 9
-    rng = np.random.default_rng(5)
-    z1 = _z1(nx, ny, rng)
-    table = _springs(nx * ny, rng, step=2e-6)
-    surface = xr.Dataset({"z1": (("ex", "ey"), z1, _attrs("m", "element peak height"))}, attrs={"element_size": C})
-    n_zeta = table.stiffness.shape[1]
-    springs = xr.Dataset(
-        {"stiffness": (("ex", "ey", "zeta"), table.stiffness.reshape(nx, ny, -1), _attrs("N/m", "k")),
-         "force": (("ex", "ey", "zeta"), table.force.reshape(nx, ny, -1), _attrs("N", "F"))},
-        coords={"zeta": ("zeta", np.arange(n_zeta) * table.zeta_step, _attrs("m", "compression"))})
+    surface, springs, _ = stage_datasets(nx, ny)
     io.write_dataset(surface, tmp_path / "surface.nc", {})
     io.write_dataset(springs, tmp_path / "springs.nc", {})
     preset = {"block_length": 0.004, "block_width": 0.003, "groove_width": 0.001, "groove_depth": 0.01}

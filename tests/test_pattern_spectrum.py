@@ -7,9 +7,8 @@ import math
 
 import numpy as np
 import pytest
-import xarray as xr
 
-from test_pattern import C, _springs, _z1
+from test_pattern import C, stage_datasets
 from tyreroad import io, pipeline
 from tyreroad.config import load_config
 from tyreroad.fe_pattern import BlockCell, BlockMesh
@@ -24,23 +23,12 @@ ORIGIN = (1e-3, 0.0)
 FREQ = [10.0, 100.0, 1000.0, 3000.0, 5000.0]
 
 
-def _attrs(units, name):
-    return {"units": units, "long_name": name}
-
-
 @pytest.fixture(scope="module")
 def case(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("pattern_spectrum")
     cfg = load_config("config/config.yaml")
     nx, ny = 12, 9
-    rng = np.random.default_rng(5)
-    z1 = _z1(nx, ny, rng)
-    table = _springs(nx * ny, rng, step=2e-6)
-    surface = xr.Dataset({"z1": (("ex", "ey"), z1, _attrs("m", "element peak height"))}, attrs={"element_size": C})
-    springs = xr.Dataset(
-        {"stiffness": (("ex", "ey", "zeta"), table.stiffness.reshape(nx, ny, -1), _attrs("N/m", "k")),
-         "force": (("ex", "ey", "zeta"), table.force.reshape(nx, ny, -1), _attrs("N", "F"))},
-        coords={"zeta": ("zeta", np.arange(table.stiffness.shape[1]) * table.zeta_step, _attrs("m", "compression"))})
+    surface, springs, table = stage_datasets(nx, ny)
     greens = {}
     for name, preset in (("b4", PRESET), ("slick", None)):
         path = tmp / f"{name}.nc"

@@ -81,3 +81,14 @@ def nonnegative_array(name: str, value: Any) -> np.ndarray:
     if np.any(~np.isfinite(arr)) or np.any(arr < 0):
         raise ValueError(f"{name}: expected finite values >= 0")
     return arr
+
+
+def whole_multiple(name: str, value: Any, step: float, *, allow_zero: bool = False, rtol: float = 1e-9) -> int:
+    """``value`` [m] as a whole number of ``step`` [m] (e.g. elements of a tread pattern), or a ValueError naming
+    ``name``, the value and what was expected (>= 1 step, or >= 0 with ``allow_zero``)."""
+    v = float(value)
+    n = round(v / step) if math.isfinite(v) else 0
+    if not math.isfinite(v) or abs(n * step - v) > rtol * max(abs(v), step) or n < (0 if allow_zero else 1):
+        what = "a non-negative" if allow_zero else "a positive"
+        raise ValueError(f"{name} = {value!r} m: expected {what} whole multiple of the element size {step:g} m")
+    return int(n)

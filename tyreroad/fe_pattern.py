@@ -55,6 +55,7 @@ import numpy as np
 import scipy.sparse as sps
 import scipy.sparse.linalg as spla
 
+from tyreroad import checks
 from tyreroad.fe_layer import _INTORDER, _scalar_element, axis_nodes, elasticity_matrices, nested_dissection
 
 __all__ = ["TreadPattern", "BlockMesh", "BlockCell", "BlockModes", "block_static_influence", "block_frequency_response",
@@ -179,19 +180,6 @@ F phi (N/4 x n_modes) and the static table instead.
 """
 
 
-def _whole(name: str, value: float, c: float, *, allow_zero: bool) -> int:
-    """Number of elements c in ``value``, or a ValueError naming the field."""
-    v = float(value)
-    if not math.isfinite(v) or v < 0 or (v == 0 and not allow_zero):
-        expect = ">= 0" if allow_zero else "> 0"
-        raise ValueError(f"TreadPattern.{name} must be a finite length {expect} [m], got {value!r}")
-    n = int(round(v / c))
-    if abs(n * c - v) > 1e-9 * max(c, v):
-        raise ValueError(f"TreadPattern.{name} = {v!r} m must be a whole multiple of the element size "
-                         f"{c!r} m (got {v / c:.6g} elements)")
-    return n
-
-
 @dataclass(frozen=True)
 class TreadPattern:
     """Geometry of a periodic block pattern: rectangular blocks separated by straight grooves.
@@ -222,9 +210,9 @@ class TreadPattern:
         c = float(self.element_size)
         if not (math.isfinite(c) and c > 0):
             raise ValueError(f"TreadPattern.element_size must be a length > 0 [m], got {self.element_size!r}")
-        _whole("block_length", self.block_length, c, allow_zero=False)
-        _whole("block_width", self.block_width, c, allow_zero=False)
-        _whole("groove_width", self.groove_width, c, allow_zero=True)
+        checks.whole_multiple("TreadPattern.block_length", self.block_length, c, allow_zero=False)
+        checks.whole_multiple("TreadPattern.block_width", self.block_width, c, allow_zero=False)
+        checks.whole_multiple("TreadPattern.groove_width", self.groove_width, c, allow_zero=True)
         d = float(self.groove_depth)
         if not (math.isfinite(d) and d >= 0):
             raise ValueError(f"TreadPattern.groove_depth must be a depth >= 0 [m], got {self.groove_depth!r}")

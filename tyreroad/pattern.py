@@ -92,17 +92,6 @@ PATTERN_INFLUENCES = ("fe", "standin")
 _GRID_RTOL = 1e-9
 
 
-def _elements(key: str, value: float, element_size: float, allow_zero: bool = False) -> int:
-    """``value`` [m] as a whole number of elements of size ``element_size`` [m], or a ValueError naming ``key``."""
-    v = float(value)
-    n = round(v / element_size)
-    if not math.isfinite(v) or abs(n * element_size - v) > _GRID_RTOL * max(abs(v), element_size) or (
-            n < (0 if allow_zero else 1)):
-        what = "a non-negative" if allow_zero else "a positive"
-        raise ValueError(f"{key} = {value!r} m: expected {what} whole multiple of the element size {element_size:g} m")
-    return int(n)
-
-
 # --------------------------------------------------------------------------------------------
 # Geometry and placement
 # --------------------------------------------------------------------------------------------
@@ -139,9 +128,9 @@ class PatternGeometry:
     def __post_init__(self) -> None:
         c = checks.real("element_size", self.element_size, positive=True)
         pre = f"pattern.presets.{self.name}"
-        _elements(f"{pre}.block_length", self.block_length, c)
-        _elements(f"{pre}.block_width", self.block_width, c)
-        _elements(f"{pre}.groove_width", self.groove_width, c, allow_zero=True)
+        checks.whole_multiple(f"{pre}.block_length", self.block_length, c)
+        checks.whole_multiple(f"{pre}.block_width", self.block_width, c)
+        checks.whole_multiple(f"{pre}.groove_width", self.groove_width, c, allow_zero=True)
         if not (math.isfinite(float(self.groove_depth)) and float(self.groove_depth) >= 0):
             raise ValueError(f"{pre}.groove_depth = {self.groove_depth!r} m: expected a depth >= 0 [m]")
 
