@@ -179,9 +179,9 @@ def _pattern_job(rule: str, config: Mapping[str, Any], wildcards: Mapping[str, A
         # the N right-hand sides faster
         return _BASE_MB + 1.7 * n_block * (1 + n_block / 800) + 3 * table_mb, 30 + 4.5e-4 * n_block**2
     if rule == "pattern_stiffness_spectrum":
-        # the greens job's assembly and factorisations again, the eigen-decomposition of every symmetry class
-        # (measured 114 s for 40 modes on a 20 x 20 block) and one direct complex frequency (80 s)
-        return _BASE_MB + 1.7 * n_block * (1 + n_block / 800) + 3 * table_mb, 200 + 1.5e-3 * n_block**2
+        # the eigen-decomposition of every symmetry class and one direct complex frequency: measured 245 s for a
+        # 20 x 20 block, 2370 s and 11.3 GB for 40 x 40 (the complex factors hold twice the real ones' memory)
+        return _BASE_MB + 2.5 * n_block * (1 + n_block / 800) + 3 * table_mb, 200 + 1.5e-3 * n_block**2
     steps = uniform_grid_steps(float(config["solver"]["d_max"]), float(config["solver"]["quasistatic_step"]))
     output = steps * nx * ny * 8 * 6 / 1e6
     if preset is None and solver_path(config, nx * ny, steps, False) == "fft":
