@@ -76,6 +76,7 @@ __all__ = [
     "check_pattern_config",
     "check_pattern_springs",
     "kernel_from_pattern_greens",
+    "run_inputs",
     "solve_pattern_run",
     "pattern_contact_dataset",
     "pattern_study",
@@ -523,6 +524,18 @@ def kernel_from_pattern_greens(greens: xr.Dataset, shape, origin=(0.0, 0.0)) -> 
 # --------------------------------------------------------------------------------------------
 # Runs and the study
 # --------------------------------------------------------------------------------------------
+def run_inputs(surface: xr.Dataset, springs: xr.Dataset, greens: xr.Dataset, origin=(0.0, 0.0)):
+    """What a run on a pattern (or the slick) greens file reads: (z1 [m] (nx, ny), the static kernel on the patch
+    placed at ``origin`` [m], the checked spring tables, one per patch element; grooved springs still active)."""
+    from .springs import SpringTable
+
+    z1 = surface["z1"].transpose("ex", "ey").values
+    kernel = kernel_from_pattern_greens(greens, z1.shape, origin)
+    kernel.check_element_size(surface.attrs.get("element_size"))
+    table = SpringTable.from_dataset(springs)
+    return z1, kernel, SpringTable.checked(table.stiffness, table.force, table.zeta_step, z1.size)
+
+
 def solve_pattern_run(surface: xr.Dataset, springs: xr.Dataset, greens: xr.Dataset, settings,
                       origin=(0.0, 0.0), threads: int = 1, grooves: xr.Dataset | None = None):
     """A quasi-static indentation run on a patterned (or, for a slick greens file, the slick) tread.
@@ -545,13 +558,8 @@ def solve_pattern_run(surface: xr.Dataset, springs: xr.Dataset, greens: xr.Datas
     """
     from .contact import run_loading_path
     from .loading import IndentationPath
-    from .springs import SpringTable
 
-    z1 = surface["z1"].transpose("ex", "ey").values
-    kernel = kernel_from_pattern_greens(greens, z1.shape, origin)
-    kernel.check_element_size(surface.attrs.get("element_size"))
-    table = SpringTable.from_dataset(springs)
-    table = SpringTable.checked(table.stiffness, table.force, table.zeta_step, z1.size)
+    z1, kernel, table = run_inputs(surface, springs, greens, origin)
     if grooves is not None:
         if isinstance(kernel, PatternKernel):
             raise ValueError("grooves: a grooves-only run is on the slick layer; expected the slick greens file")

@@ -28,7 +28,8 @@ from typing import Sequence
 import numpy as np
 import xarray as xr
 
-from .pattern import PatchInfluence, PatchLayout, PatternGeometry, groove_springs, kernel_from_pattern_greens
+from .pattern import (PatchInfluence, PatchLayout, PatternGeometry, groove_springs, kernel_from_pattern_greens,
+                      run_inputs)
 
 logger = logging.getLogger(__name__)
 
@@ -128,7 +129,6 @@ def pattern_stiffness_spectrum(surface: xr.Dataset, springs: xr.Dataset, pattern
     from .fe_pattern import BlockCell, BlockMesh, BlockModes
     from .greens import ElementFRF
     from .pattern_stage import tread_pattern
-    from .springs import SpringTable
     from .stiffness import _contact_set_spectrum
 
     t0 = time.perf_counter()
@@ -138,14 +138,11 @@ def pattern_stiffness_spectrum(surface: xr.Dataset, springs: xr.Dataset, pattern
     freq = np.asarray(frequencies, dtype=float)
     if freq.ndim != 1 or freq.size == 0 or np.any(freq <= 0) or np.any(np.diff(freq) <= 0):
         raise ValueError(f"frequencies: expected increasing values > 0 [Hz], got {freq}")
-    z1 = surface["z1"].transpose("ex", "ey").values
+    z1, pattern_kernel, table = run_inputs(surface, springs, pattern_greens, origin)
     shape = z1.shape
-    pattern_kernel = kernel_from_pattern_greens(pattern_greens, shape, origin)
     slick_kernel = kernel_from_pattern_greens(slick_greens, shape)
     layout = pattern_kernel.layout
     geometry = layout.geometry
-    table = SpringTable.from_dataset(springs)
-    table = SpringTable.checked(table.stiffness, table.force, table.zeta_step, z1.size)
     grooved_table = groove_springs(table, layout.grooved)
 
     cell = BlockCell(tread_pattern(geometry), material.thickness, material.poisson, material.density, BlockMesh())

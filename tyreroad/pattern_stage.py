@@ -86,10 +86,11 @@ def fe_block_influence(pattern: PatternGeometry, material) -> tuple[np.ndarray, 
     from .fe_pattern import BlockMesh, block_static_influence
 
     mesh = BlockMesh()
-    xy, g = block_static_influence(tread_pattern(pattern), material, mesh)
+    geometry = tread_pattern(pattern)
+    xy, g = block_static_influence(geometry, material, mesh)
     asym = float(np.max(np.abs(g - g.T)) / np.max(np.abs(g)))
     note = (f"FE cell model (tyreroad.fe_pattern): one block on the rigid belt, {mesh.per_element} x {mesh.per_element} "
-            f"{mesh.element} hexahedra per surface element, grooves {'to the belt' if not tread_pattern(pattern).has_undertread(material.thickness) else 'over an undertread, periodic cell'}; "
+            f"{mesh.element} hexahedra per surface element, grooves {'to the belt' if not geometry.has_undertread(material.thickness) else 'over an undertread, periodic cell'}; "
             f"displacement at element centres (greens' convention), so G is reciprocal only to {asym:.1e} of max|G|")
     return xy, g, note
 
