@@ -1,0 +1,548 @@
+r"""Dynamic runs on a patterned tread: the block's modal form as a Radau IIA-3 stage kernel (issue 27).
+
+A tread block's response is not translation invariant, so the layer's offset tables (:mod:`tyreroad.kernel`)
+cannot carry it, and a table of N x N matrices per lag (N = the block's elements) would need N² L numbers
+(330 MB for a 20 mm block at L = 256, 5.2 GB for a 40 mm block). The block's FE model gives the response in
+modal form instead (:class:`tyreroad.fe_pattern.BlockModes`: K(omega) = E(omega) K_1 for a frequency-independent
+Poisson's ratio, K_1 phi = lambda M phi):
+
+    G(s) = sum_k psi_k psi_k^T h_k(s) + R / E(s),      h_k(s) = 1 / (E(s) lambda_k + s^2),
+
+with psi_k the mode's work-equivalent element loads (the element-mean displacement per unit element force:
+the **mean** field, which makes G symmetric; the static tables of the quasi-static runs use the element-centre
+displacement, see below), and R the static compliance of the modes left out at E = 1 Pa (exact at s = 0,
+positive semi-definite). :class:`BlockModalForm` holds psi (N x K), lambda (K) and R (N x N): memory N K + N²
+whatever the number of lags.
+
+Time kernel: the Radau IIA-3 convolution quadrature of every scalar h_k and of 1 / E (:func:`modal_weights`;
+:mod:`tyreroad.radau`, the layer's stage kernel :mod:`tyreroad.stage`), so that the stage block weights are
+
+    W_l = sum_k psi_k psi_k^T (x) w_k[l] + R (x) c[l]      (w_k[l], c[l]: 3 x 3),
+
+and beyond the kept lags the creep's exact Radau-CQ images with a spatial factor per output stage that makes a
+held force relax to G(0) exactly (the layer's sum rule, :meth:`tyreroad.stage.StageTail.with_sum_rule`, here
+with block matrices).
+
+Stable for every spring, by construction: each h_k and 1 / E is the receptance of a passive system (s h_k(s)
+and s / E(s) positive real), so for s in the right half-plane and e^{i phi} = s / |s|, Herm(e^{i phi} G(s)) =
+sum_k psi_k psi_k^T Re(s h_k(s)) / |s| + R Re(s / E(s)) / |s| is positive semi-definite (definite with loss);
+the Radau generating function's eigenvalues lie in Re s > 0 on and inside the unit circle, so I + S^(1/2)
+G(Delta / h) S^(1/2) is nonsingular for springs S >= 0 equal at the three stages (the argument of
+:mod:`tyreroad.stage`). That needs G symmetric, hence the mean field; :func:`form_margin` measures the margin
+of the exact modal form, and :meth:`PatternStageKernel.truncation` what the kept lags and the tail cut off.
+
+The march: a :class:`PatternStageKernel` is a :class:`tyreroad.kernel.LayerKernel` whose collaborators are
+the stage substrate block by block (:class:`PatternStageSubstrate`, a dense 3 N_b x 3 N_b W_0 per block, the
+loaded set solved directly) and the history in modal coordinates (:class:`PatternStageHistory`: per block the
+modal forces q_k = psi_k^T F over the kept lags, K x 9 L per step, and the residual's R (x) c[l] on the block's
+element forces) plus the tail (:class:`PatternTailHistory`); its :meth:`march_view` is the stage kernel's, so
+the march itself is unchanged.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Sequence
+
+import numpy as np
+import xarray as xr
+
+from . import checks
+from .history import HistorySum, _StepCounter
+from .kernel import LayerKernel
+from .pattern import PatchInfluence, PatchLayout, PatternKernel
+from .radau import STAGES, radau_weights, stage_transfer
+from .stage import StageDenseSubstrate, StageKernel, StageTail
+
+logger = logging.getLogger(__name__)
+
+__all__ = ["BlockModalForm", "modal_weights", "PatternStageKernel", "PatternStageSubstrate",
+           "PatternStageHistory", "PatternTailHistory", "form_margin", "DYNAMIC_FIELD"]
+
+#: The displacement the dynamic block kernel gives per element: the element mean (symmetric G, see the module
+#: docstring).
+DYNAMIC_FIELD = "mean"
+
+
+# --------------------------------------------------------------------------------------------
+# the block's modal form
+# --------------------------------------------------------------------------------------------
+@dataclass(frozen=True, eq=False)
+class BlockModalForm:
+    """G(s) = sum_k psi_k psi_k^T / (E(s) lambda_k + s^2) + R / E(s) over a block's N surface elements.
+
+    Attributes
+    ----------
+    psi : numpy.ndarray
+        (N, K) [1/sqrt(kg)]: the modes' element loads (M-orthonormal modes; psi_k^T F is the modal force).
+    lam : numpy.ndarray
+        (K,) [1/(Pa s^2)]: lambda_k, so that omega_k^2 = E lambda_k.
+    residual : numpy.ndarray
+        R (N, N) [Pa m/N]: the static compliance of the modes left out, at E = 1 Pa.
+    static : numpy.ndarray
+        (N, N) [Pa m/N]: the block's static compliance at E = 1 Pa (sum_k psi psi^T / lambda + R).
+    density : float
+        rho [kg/m^3] the lambdas are for (:meth:`with_density` rescales them).
+    block_elements : (int, int)
+        The block's elements along x and y (row-major index i n_y + j).
+    classes : numpy.ndarray
+        (K, 2) int: each mode's parity about the block's x and y mid-planes (+1 even, -1 odd).
+    """
+
+    psi: np.ndarray
+    lam: np.ndarray
+    residual: np.ndarray
+    static: np.ndarray
+    density: float
+    block_elements: tuple
+    classes: np.ndarray = field(default=None, repr=False)
+
+    def __post_init__(self):
+        psi, lam = np.asarray(self.psi, dtype=float), np.asarray(self.lam, dtype=float)
+        n = math.prod(self.block_elements)
+        if psi.ndim != 2 or psi.shape[0] != n or lam.shape != (psi.shape[1],):
+            raise ValueError(f"BlockModalForm: expected psi (N, K) and lam (K,) for N = {n}, got {psi.shape} and "
+                             f"{lam.shape}")
+        if not np.all(lam > 0) or not np.all(np.isfinite(psi)):
+            raise ValueError("BlockModalForm: lambda must be > 0 and psi finite")
+        for name in ("residual", "static"):
+            if np.shape(getattr(self, name)) != (n, n):
+                raise ValueError(f"BlockModalForm: {name} must be ({n}, {n}), got {np.shape(getattr(self, name))}")
+        checks.real("density", self.density, positive=True)
+
+    @property
+    def n_modes(self) -> int:
+        return int(self.lam.size)
+
+    @classmethod
+    def from_modes(cls, modes) -> "BlockModalForm":
+        """The full-block form of a :class:`tyreroad.fe_pattern.BlockModes` computed with ``field="mean"``.
+
+        Each symmetry class's quarter-model mode is one mode of the whole block; its full N x N contribution is
+        unfolded by the cell's own mirroring (:meth:`tyreroad.fe_pattern.BlockCell.influence`) and factorised
+        (rank one, symmetric: checked).
+        """
+        if modes.field != DYNAMIC_FIELD:
+            raise ValueError(f"BlockModalForm: expected modes of the {DYNAMIC_FIELD!r} field (symmetric G), got "
+                             f"{modes.field!r}")
+        cell = modes.cell
+        psi, lam, classes = [], [], []
+        for cls_, (lam_c, p_phi, f_phi, _static) in modes.data.items():
+            for k in range(lam_c.size):
+                def responder(c, q, cls_=cls_, k=k, p_phi=p_phi, f_phi=f_phi):
+                    if c != cls_:
+                        return np.zeros((p_phi.shape[0], len(q)))
+                    return np.outer(p_phi[:, k], f_phi[q, k])
+
+                part = cell.influence(1.0, 0.0, None, DYNAMIC_FIELD, responder=responder).real
+                j = int(np.argmax(np.abs(np.diag(part))))
+                if not part[j, j] > 0:
+                    raise ValueError(f"mode {k} of class {cls_}: no positive diagonal in its contribution")
+                v = part[:, j] / math.sqrt(part[j, j])
+                err = float(np.max(np.abs(np.outer(v, v) - part)) / np.max(np.abs(part)))
+                if err > 1e-9:
+                    raise ValueError(f"mode {k} of class {cls_}: its contribution is not psi psi^T (error {err:.2e})")
+                psi.append(v)
+                lam.append(float(lam_c[k]))
+                classes.append(cls_)
+        psi = np.array(psi).T
+        lam = np.array(lam)
+        order = np.argsort(lam)
+        psi, lam, classes = psi[:, order], lam[order], np.array(classes, dtype=int)[order]
+        static = cell.influence(1.0, 0.0, None, DYNAMIC_FIELD).real
+        static = 0.5 * (static + static.T)
+        residual = static - (psi / lam) @ psi.T
+        return cls(psi, lam, 0.5 * (residual + residual.T), static, float(cell.density),
+                   tuple(cell.pattern.shape), classes)
+
+    def with_density(self, density: float) -> "BlockModalForm":
+        """The same block of another density: lambda scales as 1 / rho (K_1 fixed, M proportional to rho)."""
+        rho = checks.real("density", density, positive=True)
+        return dataclasses.replace(self, lam=self.lam * self.density / rho, psi=self.psi * math.sqrt(self.density / rho),
+                                   density=rho)
+
+    def scalar_laplace(self, material):
+        """s (n,) -> (n, K + 1): h_k(s) = 1 / (E(s) lambda_k + s^2) and, last, 1 / E(s)."""
+        lam = self.lam
+
+        def fn(s):
+            s = np.asarray(s, dtype=complex)
+            e = np.asarray(material.laplace_modulus(s), dtype=complex).reshape(s.shape)
+            return np.concatenate([1.0 / (e[:, None] * lam[None, :] + (s * s)[:, None]), 1.0 / e[:, None]], axis=1)
+
+        return fn
+
+    def response(self, material, frequencies) -> np.ndarray:
+        """G(i omega) [m/N], (n_f, N, N) complex (f = 0: the quasi-static modulus)."""
+        f = np.atleast_1d(np.asarray(frequencies, dtype=float))
+        out = np.empty((f.size,) + self.static.shape, dtype=complex)
+        for i, fi in enumerate(f):
+            w = 2 * math.pi * fi
+            e = complex(material.quasi_static_modulus) if fi == 0 else complex(np.ravel(material.modulus(w))[0])
+            out[i] = (self.psi / (e * self.lam - w * w)) @ self.psi.T + self.residual / e
+        return out
+
+    def natural_frequencies(self, material) -> np.ndarray:
+        """sqrt(Re E(f) lambda) / 2 pi solved by fixed point [Hz] (undamped), ascending."""
+        f = np.sqrt(float(material.quasi_static_modulus) * self.lam) / (2 * np.pi)
+        for _ in range(30):
+            f = np.sqrt(np.real(np.asarray(material.modulus(2 * np.pi * f))) * self.lam) / (2 * np.pi)
+        return np.sort(f)
+
+    def to_dataset(self) -> xr.Dataset:
+        """The form as the variables of a dynamic pattern greens file (docs/data_contracts.md)."""
+        return xr.Dataset(
+            {
+                "mode_load": (("element", "mode"), self.psi,
+                              {"units": "1/sqrt(kg)", "long_name": "mode's work-equivalent element loads psi_k"}),
+                "mode_lambda": (("mode",), self.lam, {"units": "1/(Pa s2)", "long_name": "lambda_k: omega_k^2 = E lambda_k"}),
+                "mode_class": (("mode", "axis"), self.classes,
+                               {"units": "1", "long_name": "parity about the block's x and y mid-planes"}),
+                "modal_residual": (("element", "source"), self.residual,
+                                   {"units": "Pa m/N", "long_name": "static compliance of the modes left out, E = 1 Pa"}),
+                "modal_static": (("element", "source"), self.static,
+                                 {"units": "Pa m/N", "long_name": "block static compliance (element mean), E = 1 Pa"}),
+            },
+            attrs={"modal_density": self.density, "block_elements_x": self.block_elements[0],
+                   "block_elements_y": self.block_elements[1], "modal_field": DYNAMIC_FIELD},
+        )
+
+    @classmethod
+    def from_dataset(cls, ds: xr.Dataset) -> "BlockModalForm":
+        """Read :meth:`to_dataset`'s variables."""
+        if "mode_load" not in ds:
+            raise ValueError(f"pattern greens {ds.attrs.get('pattern', '?')}/{ds.attrs.get('material', '?')}: no modal "
+                             "form (mode_load); expected a file written with pattern.modes including dynamic")
+        return cls(ds["mode_load"].transpose("element", "mode").values, ds["mode_lambda"].values,
+                   ds["modal_residual"].transpose("element", "source").values,
+                   ds["modal_static"].transpose("element", "source").values, float(ds.attrs["modal_density"]),
+                   (int(ds.attrs["block_elements_x"]), int(ds.attrs["block_elements_y"])),
+                   ds["mode_class"].transpose("mode", "axis").values)
+
+
+def form_margin(form: BlockModalForm, material, sample_rate: float, n_theta: int = 256) -> dict:
+    """The stability margin of the exact modal form on the Radau generating function's eigenvalues.
+
+    min over theta in (0, pi] and the three eigenvalues s = d_i(e^{-i theta}) / h of
+    lambda_min Herm(e^{i phi} G(s)) / lambda_max G(0) at the phase e^{i phi} = s / |s| (module docstring);
+    > 0: I + S^(1/2) G S^(1/2) nonsingular for every spring S >= 0 equal at the stages. Also the smallest
+    eigenvalue of the residual R relative to the static table's largest (>= 0 up to rounding).
+    """
+    from .radau import radau_delta
+
+    h = 1.0 / float(sample_rate)
+    theta = np.linspace(0.0, np.pi, int(n_theta) + 1)[1:]
+    d = np.linalg.eigvals(radau_delta(np.exp(-1j * theta)))  # (n, 3)
+    s = (d / h).ravel()
+    values = form.scalar_laplace(material)(s)  # (n 3, K + 1)
+    phase = s / np.abs(s)
+    scale = float(np.linalg.eigvalsh(form.static)[-1]) / float(material.quasi_static_modulus)
+    worst = math.inf
+    for i in range(s.size):
+        w = (phase[i] * values[i]).real
+        herm = (form.psi * w[:-1]) @ form.psi.T + form.residual * w[-1]
+        worst = min(worst, float(np.linalg.eigvalsh(herm)[0]) / scale)
+    res = np.linalg.eigvalsh(form.residual)
+    return {"margin": worst, "residual_min": float(res[0] / np.linalg.eigvalsh(form.static)[-1]),
+            "min_real_part_s": float(s.real.min())}
+
+
+# --------------------------------------------------------------------------------------------
+# the Radau weights of the modal form
+# --------------------------------------------------------------------------------------------
+def modal_weights(form: BlockModalForm, material, sample_rate: float, n_lags: int) -> np.ndarray:
+    """Radau IIA-3 CQ block weights of every h_k and of 1 / E: (L, 3, 3, K + 1), the last for the residual."""
+    return radau_weights(form.scalar_laplace(material), int(n_lags), 1.0 / float(sample_rate))
+
+
+def _stage_w0(form: BlockModalForm, weights0: np.ndarray) -> np.ndarray:
+    """W_0 of the block, (3 N, 3 N) stage-major: sum_k psi_k psi_k^T w_k[0][i, j] + R c[0][i, j]."""
+    n = form.psi.shape[0]
+    out = np.empty((STAGES * n, STAGES * n))
+    for i in range(STAGES):
+        for j in range(STAGES):
+            out[i * n:(i + 1) * n, j * n:(j + 1) * n] = (form.psi * weights0[i, j, :-1]) @ form.psi.T + \
+                form.residual * weights0[i, j, -1]
+    return out
+
+
+# --------------------------------------------------------------------------------------------
+# the march's collaborators
+# --------------------------------------------------------------------------------------------
+def _stage_index(index: np.ndarray, size: int) -> np.ndarray:
+    """Stage-major positions of ``index`` in a vector of 3 ``size``."""
+    return (np.arange(STAGES)[:, None] * size + np.asarray(index)[None, :]).ravel()
+
+
+class PatternStageSubstrate:
+    """W_0 of the patch, block by block: each block's loaded stage set solved directly
+    (:class:`tyreroad.stage.StageDenseSubstrate`, LU kept while its loaded set and stiffnesses stay); grooved
+    elements (never loaded) keep delta = -r."""
+
+    def __init__(self, layout: PatchLayout, w0_block: np.ndarray):
+        m = math.prod(layout.shape)
+        n = math.prod(layout.geometry.block_elements)
+        self._parts = []
+        for idx, loc in layout.blocks:
+            rows = _stage_index(loc, n)
+            self._parts.append((_stage_index(idx, m), StageDenseSubstrate(w0_block[np.ix_(rows, rows)])))
+        self.self_compliance = float(np.mean(np.diag(w0_block)))
+
+    @property
+    def factorisations(self) -> int:
+        return sum(p.factorisations for _, p in self._parts)
+
+    def instant(self, force: np.ndarray) -> np.ndarray:
+        out = np.zeros(np.shape(force))
+        for glob, part in self._parts:
+            out[glob] = part.g0 @ force[glob]
+        return out
+
+    def begin_step(self) -> None:
+        """Nothing to reset."""
+
+    def correction(self, stiffness: np.ndarray, residual: np.ndarray, polish: bool) -> tuple[np.ndarray, int]:
+        delta = -np.asarray(residual, dtype=float).copy()
+        for glob, part in self._parts:
+            if np.any(stiffness[glob]):
+                delta[glob] = part.correction(stiffness[glob], residual[glob], polish)[0]
+        return delta, 0
+
+    def tangent(self, stiffness):
+        raise NotImplementedError("the pattern stage substrate belongs to a dynamic kernel: no quasi-static tangent")
+
+
+class PatternStageHistory:
+    """sum_{l=1}^{min(n, L-1)} W_l F_{n-l} block by block, in modal coordinates (module docstring).
+
+    Per block a doubled ring of the last L - 1 steps' modal forces q = F psi (3, K) and element forces (3, N_b),
+    so that the lags of a step are one contiguous window (most recent first).
+    """
+
+    def __init__(self, layout: PatchLayout, form: BlockModalForm, weights: np.ndarray):
+        self.m = math.prod(layout.shape)
+        self.depth = weights.shape[0] - 1
+        d = max(self.depth, 1)
+        # w[l - 1, i, j, k] for l = 1 ... L - 1, and the residual's c[l - 1] as (3, (L - 1) 3)
+        self._wm = np.ascontiguousarray(weights[1:, :, :, :-1])
+        self._wc = np.ascontiguousarray(weights[1:, :, :, -1].transpose(1, 0, 2).reshape(STAGES, -1))
+        self._blocks = []
+        for idx, loc in layout.blocks:
+            psi = np.ascontiguousarray(form.psi[loc])
+            res = np.ascontiguousarray(form.residual[np.ix_(loc, loc)])
+            self._blocks.append((idx, psi, res, np.zeros((2 * d, STAGES, form.n_modes)),
+                                 np.zeros((2 * d, STAGES, idx.size))))
+        self._pos = 0
+        self._steps = _StepCounter()
+
+    @property
+    def nbytes(self) -> int:
+        return sum(b[3].nbytes + b[4].nbytes for b in self._blocks) + self._wm.nbytes
+
+    def record(self, n: int, force: np.ndarray) -> None:
+        """Store the stage forces F_n [N], (3 M,) stage-major."""
+        self._steps.check_record(n, "PatternStageHistory")
+        if self.depth == 0:
+            return
+        f = np.asarray(force, dtype=float).reshape(STAGES, self.m)
+        d = self.depth
+        self._pos = (self._pos - 1) % d
+        for idx, psi, _, ring_q, ring_f in self._blocks:
+            fb = f[:, idx]
+            q = fb @ psi
+            for p in (self._pos, self._pos + d):
+                ring_q[p] = q
+                ring_f[p] = fb
+
+    def displacement(self, n: int) -> np.ndarray:
+        """h_n [m], (3 M,) stage-major."""
+        self._steps.check_displacement(n, "PatternStageHistory")
+        out = np.zeros((STAGES, self.m))
+        terms = min(n, self.depth)
+        if terms == 0:
+            return out.reshape(-1)
+        lo, hi = self._pos, self._pos + terms
+        wm = self._wm[:terms]
+        wc = self._wc[:, : terms * STAGES]
+        for idx, psi, res, ring_q, ring_f in self._blocks:
+            # modal: hist[i, k] = sum_{l, j} w_k[l][i, j] q[l, j, k]
+            hist = np.einsum("lijk,ljk->ik", wm, ring_q[lo:hi], optimize=True)
+            resid = wc @ ring_f[lo:hi].reshape(terms * STAGES, -1)  # (3, N_b)
+            out[:, idx] = hist @ psi.T + resid @ res.T
+        return out.reshape(-1)
+
+
+class PatternTailHistory:
+    """Lags l >= L by recursion (the layer's :class:`tyreroad.stage.StageTailHistory` with block matrices):
+    per term and element one state s_n = r s_{n-1} + v^T F_{n-L}; stage i of h_n = T_i z_i block by block,
+    z = sum_k amplitude_k r_k^(L-1) u_k[i] s_k."""
+
+    def __init__(self, layout: PatchLayout, tail: StageTail):
+        self.m = math.prod(layout.shape)
+        self.delay = int(tail.delay)
+        self._r = tail.r[:, None]
+        self._feed = np.ascontiguousarray(tail.v)  # (K, 3)
+        self._out = np.ascontiguousarray((tail.amplitude * tail.r ** (self.delay - 1))[None, :] * tail.u.T)  # (3, K)
+        shape_table = np.asarray(tail.shape_table)  # (N, N, 3)
+        self._blocks = [(idx, [np.ascontiguousarray(shape_table[np.ix_(loc, loc)][:, :, i]) for i in range(STAGES)])
+                        for idx, loc in layout.blocks]
+        self._states = np.zeros((tail.r.size, self.m))
+        self._delay_line = np.zeros((self.delay, STAGES, self.m))
+        self._updated_for = -1
+        self._steps = _StepCounter()
+
+    def _advance(self, n: int) -> None:
+        if n >= self.delay and self._updated_for != n:
+            self._states *= self._r
+            self._states += self._feed @ self._delay_line[n % self.delay]
+            self._updated_for = n
+
+    def displacement(self, n: int) -> np.ndarray:
+        self._steps.check_displacement(n, "PatternTailHistory")
+        out = np.zeros((STAGES, self.m))
+        if n < self.delay or self._states.shape[0] == 0:
+            return out.reshape(-1)
+        self._advance(n)
+        z = self._out @ self._states  # (3, M)
+        for idx, mats in self._blocks:
+            for i in range(STAGES):
+                out[i, idx] = mats[i] @ z[i, idx]
+        return out.reshape(-1)
+
+    def record(self, n: int, force: np.ndarray) -> None:
+        self._steps.check_record(n, "PatternTailHistory")
+        self._advance(n)
+        self._delay_line[n % self.delay] = np.asarray(force, dtype=float).reshape(STAGES, -1)
+
+
+# --------------------------------------------------------------------------------------------
+# the kernel
+# --------------------------------------------------------------------------------------------
+@dataclass(frozen=True, eq=False)
+class PatternStageKernel(LayerKernel):
+    """The patterned tread's dynamic kernel (module docstring): a :class:`tyreroad.kernel.LayerKernel` whose march
+    solves the three Radau stages per step on the block's modal form.
+
+    Build it with :meth:`from_form`. ``lags`` holds the block centre's step-end self response per lag (an honest
+    single-stage summary, as for :class:`tyreroad.stage.StageKernel`; the march does not use it).
+    """
+
+    layout: PatchLayout = field(default=None, repr=False)
+    form: BlockModalForm = field(default=None, repr=False)
+    weights: np.ndarray = field(default=None, repr=False)
+    tail: StageTail | None = field(default=None, repr=False)
+    quasi_static_modulus: float = float("nan")
+
+    @classmethod
+    def from_form(cls, layout: PatchLayout, form: BlockModalForm, material, sample_rate: float, n_lags: int = 256,
+                  spectrum=None, name: str | None = None) -> "PatternStageKernel":
+        """The kernel of ``material`` (E(s), density) on the patch ``layout`` from the block's modal form.
+
+        Parameters
+        ----------
+        layout : tyreroad.pattern.PatchLayout
+        form : BlockModalForm
+            Rescaled to the material's density here.
+        material : tyreroad.material.Material
+        sample_rate : float
+            fs [Hz].
+        n_lags : int
+            L, the kept block weights.
+        spectrum : tyreroad.memory.RetardationSpectrum, optional
+            The creep fit of 1 / E (default :func:`tyreroad.memory.fit_retardation_spectrum` up to fs / 2).
+        """
+        from .memory import fit_retardation_spectrum
+
+        fs = checks.real("sample_rate", sample_rate, positive=True)
+        n_lags = checks.integer("n_lags", n_lags, minimum=2)
+        if tuple(form.block_elements) != tuple(layout.geometry.block_elements):
+            raise ValueError(f"modal form of a {form.block_elements} block, layout of pattern "
+                             f"{layout.geometry.name!r} with {layout.geometry.block_elements}")
+        form = form.with_density(float(material.density))
+        weights = modal_weights(form, material, fs, n_lags)
+        e0 = float(material.quasi_static_modulus)
+        if spectrum is None:
+            spectrum = fit_retardation_spectrum(material, fs / 2)
+        static = form.static / e0  # [m/N]
+        tail = StageTail.from_spectrum(np.zeros((1, 1)), spectrum, fs, n_lags)
+        if tail.r.size:
+            # the spatial factor per output stage that makes a held force relax to G(0) exactly (the sum rule)
+            sums = weights.sum(axis=(0, 2))  # (3, K + 1): sum over lags and input stages
+            held = tail.held_sum()
+            shape = np.empty(static.shape + (STAGES,))
+            for i in range(STAGES):
+                kept = (form.psi * sums[i, :-1]) @ form.psi.T + form.residual * sums[i, -1]
+                shape[:, :, i] = (static - kept) / held[i]
+            tail = dataclasses.replace(tail, shape_table=shape)
+        else:
+            tail = None
+        centre = (form.block_elements[0] // 2) * form.block_elements[1] + form.block_elements[1] // 2
+        self_lags = np.einsum("k,lk->l", form.psi[centre] ** 2, weights[:, 2, :, :-1].sum(axis=1)) + \
+            form.residual[centre, centre] * weights[:, 2, :, -1].sum(axis=1)
+        return cls(self_lags[None, None, :], False, fs, None, layout.geometry.element_size, None, None,
+                   name or f"{material.name}/{layout.geometry.name} Radau IIA-3 modal", math.inf,
+                   "radau-modal", layout=layout, form=form, weights=weights, tail=tail,
+                   quasi_static_modulus=e0)
+
+    @property
+    def static_table(self) -> np.ndarray:
+        """G(0) of the block [m/N] (element-mean field) at the material's quasi-static modulus."""
+        return self.form.static / self.quasi_static_modulus
+
+    def needs_memory(self, n_steps: int | None) -> bool:
+        return n_steps is not None and n_steps > self.n_lags
+
+    def table(self, shape) -> np.ndarray:
+        raise TypeError(f"{self.name}: a patterned tread's influence is not translation invariant; it has no "
+                        "offset table")
+
+    def collaborators(self, shape, settings, workers: int = 1, n_steps: int | None = None):
+        """(:class:`PatternStageSubstrate`, :class:`PatternStageHistory` [+ :class:`PatternTailHistory`])."""
+        if tuple(shape) != tuple(self.layout.shape):
+            raise ValueError(f"{self.name}: the run's patch {tuple(shape)} differs from the patch placed on the "
+                             f"pattern {tuple(self.layout.shape)}")
+        if self.needs_memory(n_steps) and (self.tail is None or not settings.long_memory):
+            raise ValueError(f"the run needs {n_steps} steps of memory but the kernel keeps {self.n_lags} lags and "
+                             + ("solver.long_memory is off" if self.tail is not None else "has no creep tail"))
+        substrate = PatternStageSubstrate(self.layout, _stage_w0(self.form, self.weights[0]))
+        history = PatternStageHistory(self.layout, self.form, self.weights)
+        if self.needs_memory(n_steps):
+            logger.info("long memory: %s", self.tail.describe())
+            history = HistorySum([history, PatternTailHistory(self.layout, self.tail)])
+        return substrate, history
+
+    march_view = StageKernel.march_view
+
+    # ------------------------------------------------------------------ frequency domain and checks
+    def block_transfer(self, frequencies) -> np.ndarray:
+        """The march's own transfer from a harmonic force to the step's end value, block matrix (n_f, N, N)
+        complex [m/N] (kept lags + tail; :func:`tyreroad.radau.stage_transfer`); the exact answer is
+        :meth:`BlockModalForm.response`."""
+        f = np.atleast_1d(np.asarray(frequencies, dtype=float))
+        theta = 2 * np.pi * f / self.sample_rate
+        z = np.exp(-1j * theta[:, None] * np.arange(self.weights.shape[0])[None, :])
+        sym = np.einsum("fl,lijk->fijk", z, self.weights)  # (n_f, 3, 3, K + 1)
+        scalar = stage_transfer(sym, f, self.sample_rate)  # (n_f, K + 1)
+        out = np.einsum("nk,fk,mk->fnm", self.form.psi, scalar[:, :-1], self.form.psi) + \
+            scalar[:, -1][:, None, None] * self.form.residual[None]
+        if self.tail is not None:
+            tail_scalar = stage_transfer(self.tail.block_symbol(theta), f, self.sample_rate)  # (n_f,): times T_3
+            out = out + tail_scalar[:, None, None] * self.tail.shape_table[None, :, :, STAGES - 1]
+        return out
+
+    def relaxed(self) -> PatternKernel:
+        """The static kernel of the same block (element-mean field) at the quasi-static modulus: what a
+        quasi-static run beside the dynamic ones uses."""
+        return PatternKernel.from_block(self.layout, self.static_table,
+                                        name=f"{self.name} (relaxed)")
+
+    def frequency_influences(self, frequencies, shape, workers: int = 1) -> list:
+        raise NotImplementedError(f"{self.name}: K*(f) on a pattern is tyreroad.pattern_spectrum's")
+
+    def backing_force(self, force) -> np.ndarray:
+        raise NotImplementedError(f"{self.name}: the force at the belt under a block is not modelled (the block's "
+                                  "base reaction needs its modal participation)")
