@@ -33,7 +33,8 @@ __all__ = ["CLUSTER_RULES", "job_resources", "run_steps", "rolling_pass_steps", 
 CLUSTER_RULES = ("prepare_surface", "element_springs", "greens", "contact", "loading_run", "stiffness_spectrum",
                  "rolling_greens", "rolling_run", "sensitivity_point", "construction_greens", "construction_contact",
                  "belt_greens", "belt_contact", "belt_stiffness_spectrum", "belt_rolling_greens", "belt_rolling_run",
-                 "pattern_greens", "pattern_contact", "pattern_grooves_only", "pattern_stiffness_spectrum")
+                 "pattern_greens", "pattern_contact", "pattern_grooves_only", "pattern_stiffness_spectrum",
+                 "pattern_modes", "pattern_dynamic")
 #: Rules that request what another rule of the same work does (the study's comparison constructions, the belt
 #: study and rolling; a belt greens job also fits the belt's model, 10-25 s on the default patch, within the greens
 #: stage's runtime request)
@@ -178,11 +179,19 @@ def _pattern_job(rule: str, config: Mapping[str, Any], wildcards: Mapping[str, A
         # block (N = 400) and 7.5 GB / 1010 s for 40 x 40 (N = 1600) on one core; DOFs grow with N, the factors and
         # the N right-hand sides faster
         return _BASE_MB + 1.7 * n_block * (1 + n_block / 800) + 3 * table_mb, 30 + 4.5e-4 * n_block**2
-    if rule == "pattern_stiffness_spectrum":
+    if rule in ("pattern_stiffness_spectrum", "pattern_modes"):
         # the eigen-decomposition of every symmetry class and one direct complex frequency: measured 245 s for a
         # 20 x 20 block, 2370 s and 11.3 GB for 40 x 40 (the complex factors hold twice the real ones' memory)
         return _BASE_MB + 2.5 * n_block * (1 + n_block / 800) + 3 * table_mb, 200 + 1.5e-3 * n_block**2
-    steps = uniform_grid_steps(float(config["solver"]["d_max"]), float(config["solver"]["quasistatic_step"]))
+    d_max = float(config["solver"]["d_max"])
+    if rule == "pattern_dynamic" and wildcards.get("mode") == "dynamic":
+        # the Radau stage kernel on the modal form (tyreroad.pattern_dynamic): per block a dense 3 N x 3 N W_0 and an
+        # LU of the loaded stage set whenever it changes (most steps of a loading run)
+        steps = constant_acceleration_steps(float(config["greens"]["sample_rate"]), float(wildcards["accel"]), d_max)
+        output = steps * nx * ny * 8 * 6 / 1e6
+        return (_BASE_MB + blocks * 72 * n_block**2 / 1e6 + 3 * output,
+                30 + steps * (blocks * 2e-11 * (3 * n_block) ** 3 + 0.02))
+    steps = uniform_grid_steps(d_max, float(config["solver"]["quasistatic_step"]))
     output = steps * nx * ny * 8 * 6 / 1e6
     if preset is None and solver_path(config, nx * ny, steps, False) == "fft":
         seconds = steps * 2e-5 * nx * ny * 5
@@ -274,7 +283,8 @@ def job_resources(rule: str, config: Mapping[str, Any], wildcards: Mapping[str, 
         nx, ny = _elements(config, config["study"]["surface"])
         m = nx * ny
         mem, seconds = _BASE_MB + 0.4 * m, 0.06 * m
-    elif rule in ("pattern_greens", "pattern_contact", "pattern_grooves_only", "pattern_stiffness_spectrum"):
+    elif rule in ("pattern_greens", "pattern_contact", "pattern_grooves_only", "pattern_stiffness_spectrum",
+                  "pattern_modes", "pattern_dynamic"):
         mem, seconds = _pattern_job(rule, config, wildcards)
     elif rule in ("greens", "rolling_greens"):
         kernel = _kernel_mb(config, rolling=rule == "rolling_greens")

@@ -150,3 +150,54 @@ def slick_greens_dataset(shape, element_size: float, material) -> xr.Dataset:
         attrs={"pattern": SLICK, "kind": "slick", "material": material.name, "element_size": float(element_size),
                "influence_bytes": np.int64(table.nbytes), "compute_time_s": elapsed},
     )
+
+
+def pattern_modes_dataset(pattern: PatternGeometry, material, n_modes: int, check_frequency: float,
+                          tolerance: float = 0.02) -> xr.Dataset:
+    """The block's modal form for dynamic runs (``results/greens/pattern/{pattern}/modes.nc``).
+
+    :class:`tyreroad.pattern_dynamic.BlockModalForm` of the FE cell model (its default mesh, the element-mean
+    field) with ``n_modes`` modes per symmetry class, for the material's thickness, Poisson's ratio and density
+    (the density only scales the eigenvalues: :meth:`~tyreroad.pattern_dynamic.BlockModalForm.with_density`
+    serves every material of the same thickness and Poisson's ratio). Checked against a direct complex FE solve at
+    ``check_frequency`` [Hz] for the block's centre, edge-centre and corner elements; refused above ``tolerance``.
+    """
+    from .fe_pattern import BlockCell, BlockMesh, BlockModes
+    from .pattern_dynamic import DYNAMIC_FIELD, BlockModalForm
+
+    start = time.perf_counter()
+    cell = BlockCell(tread_pattern(pattern), material.thickness, material.poisson, material.density, BlockMesh())
+    modes = BlockModes(cell, int(n_modes), field=DYNAMIC_FIELD)
+    form = BlockModalForm.from_modes(modes)
+    t_modes = time.perf_counter() - start
+    n_x, n_y = pattern.block_elements
+    sources = np.array([(n_x // 2) * n_y + n_y // 2, (n_x // 2) * n_y, 0])
+    w = 2.0 * np.pi * float(check_frequency)
+    e = complex(np.ravel(material.modulus(w))[0])
+    logger.info("pattern %s: %d modes in %.1f s; direct complex solve at %.4g Hz for the check ...", pattern.name,
+                form.n_modes, t_modes, check_frequency)
+    direct = cell.influence(e, w, sources, DYNAMIC_FIELD)
+    modal = form.response(material, [check_frequency])[0][:, sources]
+    error = float(np.max(np.abs(modal - direct)) / np.max(np.abs(direct)))
+    natural = form.natural_frequencies(material)
+    elapsed = time.perf_counter() - start
+    logger.info("pattern %s: modal form against the direct solve at %.4g Hz: %.2e (limit %.0e); lowest natural "
+                "frequencies %s Hz; %.1f s", pattern.name, check_frequency, error, tolerance,
+                ", ".join(f"{f:.0f}" for f in natural[:4]), elapsed)
+    if not error <= tolerance:
+        raise ValueError(f"pattern {pattern.name!r}: the modal form with {n_modes} modes per class misses the direct "
+                         f"solve at {check_frequency:g} Hz by {error:.2%} (limit {tolerance:.0%}); raise "
+                         "pattern.dynamic.n_modes or lower pattern.dynamic.check_frequency")
+    ds = form.to_dataset()
+    ds = ds.assign_coords(natural_frequency=("mode", np.sort(natural)))
+    ds["natural_frequency"].attrs.update({"units": "Hz", "long_name": "undamped natural frequency at Re E(f), ascending"})
+    ds.attrs.update({"pattern": pattern.name, "kind": "pattern-modes", "material": material.name,
+                     "thickness": float(material.thickness), "poisson": float(material.poisson),
+                     "element_size": pattern.element_size,
+                     "block_length": pattern.block_length, "block_width": pattern.block_width,
+                     "groove_width": pattern.groove_width, "groove_depth": pattern.groove_depth,
+                     "modes_per_class": int(n_modes), "check_frequency": float(check_frequency),
+                     "modal_error": error, "modal_tolerance": float(tolerance), "modes_time_s": t_modes,
+                     "compute_time_s": elapsed,
+                     "modal_bytes": np.int64(8 * (form.psi.size + 2 * form.static.size))})
+    return ds

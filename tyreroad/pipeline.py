@@ -1037,3 +1037,21 @@ def run_pattern_report(study_nc: str | Path, out_md: str | Path, spectrum_ncs: S
 
     write_pattern_report(io.read_dataset(study_nc), out_md, source=str(study_nc),
                          spectra=[io.read_dataset(p) for p in spectrum_ncs])
+
+
+def run_pattern_modes(pattern_name: str, pattern_cfg: Mapping[str, Any], material_name: str,
+                      material_cfg: Mapping[str, Any], element_size: float, dynamic_cfg: Mapping[str, Any] | None,
+                      out_nc: str | Path) -> None:
+    """Stage ``pattern_modes``: the block's modal form for dynamic runs (:func:`tyreroad.pattern_stage.pattern_modes_dataset`),
+    for ``material_name``'s thickness, Poisson's ratio and density (every pattern material shares the first two:
+    checked at planning time; the density is rescaled per run)."""
+    from .pattern import PatternGeometry
+    from .pattern_stage import pattern_modes_dataset
+
+    cfg = dict(dynamic_cfg or {})
+    material = _material(material_name, material_cfg)
+    ds = pattern_modes_dataset(PatternGeometry.from_config(pattern_name, pattern_cfg, float(element_size)), material,
+                               int(cfg.get("n_modes", 40)), float(cfg.get("check_frequency", 5000.0)))
+    provenance = {"pattern": {pattern_name: dict(pattern_cfg)}, "material": {material_name: dict(material.config)},
+                  "element_size": float(element_size), "dynamic": cfg}
+    io.write_dataset(ds, out_nc, provenance, stage="pattern_modes", material=material_name)

@@ -54,6 +54,9 @@ STAGE_MODULES: dict[str, tuple[str, ...]] = {
     "pattern_study": ("log", "pipeline", "pattern", "study"),
     "pattern_stiffness_spectrum": ("log", "pipeline", "pattern_spectrum", "material"),
     "pattern_report": ("log", "pipeline", "report.pattern"),
+    "pattern_modes": ("log", "pipeline", "pattern_stage", "pattern_dynamic", "fe_pattern", "material"),
+    "pattern_dynamic": ("log", "pipeline", "pattern_dynamic", "pattern", "contact", "material"),
+    "pattern_dynamic_study": ("log", "pipeline", "pattern_dynamic", "study"),
 }
 
 _PACKAGE_DIR = Path(__file__).resolve().parent

@@ -103,6 +103,9 @@ _TARGET_OF = {
     ("construction", "material"): f"{R}/constructions/{{construction}}/greens/{{material}}.nc",
     ("material", "pattern"): f"{R}/greens/pattern/{{pattern}}/{{material}}.nc",
     ("material", "pattern", "surface"): f"{R}/pattern/contact/{{surface}}/{{material}}/{{pattern}}/quasistatic_0.nc",
+    ("pattern",): f"{R}/greens/pattern-modes/{{pattern}}.nc",
+    ("accel", "material", "mode", "pattern", "surface"):
+        f"{R}/pattern/modal/{{surface}}/{{material}}/{{pattern}}/{{mode}}_{{accel}}.nc",
     ("accel", "construction", "material", "mode", "surface"):
         f"{R}/constructions/{{construction}}/contact/{{surface}}/{{material}}/{{mode}}_{{accel}}.nc",
 }
@@ -422,7 +425,36 @@ def pattern_spectra():
             for p in names]
 
 
+def pattern_dynamic_on():
+    return "dynamic" in PATTERN.get("modes", ["quasistatic"]) and bool(PATTERN.get("presets"))
+
+
+def pattern_modes_material(wildcards=None):
+    """The material whose thickness, Poisson's ratio and density the modal forms are computed with (the first
+    pattern material; every pattern material shares the first two, checked at planning time)."""
+    return PATTERN.get("materials", ["tread"])[0]
+
+
+def pattern_dynamic_runs():
+    """Per pattern material and preset: the dynamic runs at pattern.dynamic.accelerations and the quasi-static run
+    on the same modal form's relaxed table."""
+    if not pattern_dynamic_on():
+        return []
+    accels = [float(a) for a in (PATTERN.get("dynamic") or {}).get("accelerations", [50.0, 250.0, 500.0])]
+    runs = []
+    for m, p in pattern_cases():
+        if p == "slick":
+            continue
+        runs.append(f"{R}/pattern/modal/{PATTERN_SURFACE}/{m}/{p}/quasistatic_0.nc")
+        runs += [f"{R}/pattern/modal/{PATTERN_SURFACE}/{m}/{p}/dynamic_{a:g}.nc" for a in accels]
+    return runs
+
+
+def pattern_modes_files():
+    return [f"{R}/greens/pattern-modes/{p}.nc" for p in (PATTERN.get("presets") or {})] if pattern_dynamic_on() else []
+
+
 def pattern_targets():
     if not PATTERN.get("presets"):
         return []
-    return [f"{R}/pattern/study.nc", f"{R}/pattern.md"]
+    return [f"{R}/pattern/study.nc", f"{R}/pattern.md"] + ([f"{R}/pattern/dynamic.nc"] if pattern_dynamic_on() else [])

@@ -118,6 +118,71 @@ rule pattern_stiffness_spectrum:
         "../scripts/pattern_stiffness_spectrum.py"
 
 
+rule pattern_modes:  # the block's modal form for dynamic runs: one eigen-decomposition per pattern
+    output:
+        nc=f"{R}/greens/pattern-modes/{{pattern}}.nc",
+    log:
+        f"{R}/logs/greens/pattern-modes/{{pattern}}.log",
+    benchmark:
+        f"{R}/benchmarks/greens/pattern-modes/{{pattern}}.tsv"
+    params:
+        pattern=pattern_preset,
+        material_name=pattern_modes_material(),
+        material=lambda w: _resolved_material_config(pattern_modes_material(), config["materials"]),
+        element_size=lambda w: pattern_surface_spec().get("element_size", 1.0e-3),
+        dynamic=PATTERN.get("dynamic", {}),
+        code=SOURCE["pattern_modes"],
+    threads: 1
+    resources:
+        mem_mb=lambda w, attempt: cluster_resources("pattern_modes", config, w, attempt)["mem_mb"],
+        runtime=lambda w, attempt: cluster_resources("pattern_modes", config, w, attempt)["runtime"],
+    script:
+        "../scripts/pattern_modes.py"
+
+
+rule pattern_dynamic:  # a dynamic run on the block's modal form, or (quasistatic_0) the same form's relaxed table
+    input:
+        surface=f"{R}/surface/{{surface}}.nc",
+        springs=f"{R}/springs/{{surface}}/{{material}}.nc",
+        modes=f"{R}/greens/pattern-modes/{{pattern}}.nc",
+    output:
+        nc=f"{R}/pattern/modal/{{surface}}/{{material}}/{{pattern}}/{{mode}}_{{accel}}.nc",
+    log:
+        f"{R}/logs/pattern/modal/{{surface}}/{{material}}/{{pattern}}/{{mode}}_{{accel}}.log",
+    benchmark:
+        f"{R}/benchmarks/pattern/modal/{{surface}}/{{material}}/{{pattern}}/{{mode}}_{{accel}}.tsv"
+    params:
+        check=pattern_preset,
+        material=resolved_material,
+        origin=PATTERN.get("patch_origin", [0.0, 0.0]),
+        solver=config["solver"],
+        greens=config["greens"],
+        code=SOURCE["pattern_dynamic"],
+    threads: 1
+    resources:
+        mem_mb=lambda w, attempt: cluster_resources("pattern_dynamic", config, w, attempt)["mem_mb"],
+        runtime=lambda w, attempt: cluster_resources("pattern_dynamic", config, w, attempt)["runtime"],
+    script:
+        "../scripts/pattern_dynamic.py"
+
+
+rule pattern_dynamic_study:
+    input:
+        runs=pattern_dynamic_runs(),
+        modes=pattern_modes_files(),
+    output:
+        nc=f"{R}/pattern/dynamic.nc",
+    log:
+        f"{R}/logs/pattern/dynamic_study.log",
+    params:
+        study=STUDY,
+        d_max=config["solver"]["d_max"],
+        code=SOURCE["pattern_dynamic_study"],
+    threads: 1
+    script:
+        "../scripts/pattern_dynamic_study.py"
+
+
 rule pattern_report:
     input:
         study=f"{R}/pattern/study.nc",
