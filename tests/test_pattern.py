@@ -188,8 +188,12 @@ def _pattern_config():
     (lambda p: p["presets"]["block20"].update(groove_width=0.0),
      r"pattern.presets.block20.groove_width = 0.0 m: expected at least one element"),
     (lambda p: p.update(surface="nope"), r"pattern.surface = 'nope': expected a preset in surfaces"),
-    (lambda p: p.update(modes=["quasistatic", "dynamic"]),
-     r"pattern.modes = \['quasistatic', 'dynamic'\]: expected \['quasistatic'\] \(the pattern kernel is static"),
+    (lambda p: p.update(modes=["dynamic"]),
+     r"pattern.modes = \['dynamic'\]: expected \['quasistatic'\] or \['quasistatic', 'dynamic'\]"),
+    (lambda p: p.update(influence="standin"),
+     r"pattern.modes = \['quasistatic', 'dynamic'\] with pattern.influence = 'standin': expected influence 'fe'"),
+    (lambda p: p.update(materials=["tread", "tread-thin"]),
+     r"pattern.materials: 'tread-thin' \(thickness 0.008 m, poisson 0.49\) differs from 'tread' \(thickness 0.01 m"),
     (lambda p: p.update(materials=["rubber"]), r"pattern.materials\[0\] = 'rubber': expected a preset in materials"),
     (lambda p: p["presets"].update(slick=dict(p["presets"]["block20"])),
      r"pattern.presets.slick: the name 'slick' is the unpatterned reference"),
@@ -197,6 +201,7 @@ def _pattern_config():
 def test_pattern_config_errors_name_key_value_and_expectation(edit, message):
     cfg = _pattern_config()
     check_config(copy.deepcopy(cfg))  # the shipped section is valid
+    cfg["materials"]["tread-thin"] = dict(cfg["materials"]["tread"], thickness=0.008)
     edit(cfg["pattern"])
     with pytest.raises(ConfigError, match=message):
         check_config(cfg)

@@ -718,24 +718,6 @@ def check_pattern_config(config: Mapping[str, Any]) -> None:
     if "quasistatic" not in modes or not set(modes) <= {"quasistatic", "dynamic"} or len(set(modes)) != len(modes):
         raise ValueError(f"pattern.modes = {modes!r}: expected ['quasistatic'] or ['quasistatic', 'dynamic'] (the "
                          "quasi-static runs are the pattern study's base; dynamic adds runs on the block's modal form)")
-    if "dynamic" in modes and presets:
-        if section.get("influence", "fe") != "fe":
-            raise ValueError(f"pattern.modes = {modes!r} with pattern.influence = {section.get('influence')!r}: "
-                             "expected influence 'fe' (the dynamic kernel is the FE block's modal form)")
-        from .material import material_from_config as _mat
-
-        names = list(section.get("materials", []))
-        for name in names:
-            if name not in config["materials"]:
-                raise ValueError(f"pattern.materials: {name!r} is not a preset in materials")
-        mats = [_mat(n, config["materials"]) for n in names]
-        for n, m in zip(names[1:], mats[1:]):
-            if not (math.isclose(m.thickness, mats[0].thickness, rel_tol=1e-12)
-                    and math.isclose(m.poisson, mats[0].poisson, rel_tol=1e-12)):
-                raise ValueError(f"pattern.materials: {n!r} (thickness {m.thickness:g} m, poisson {m.poisson:g}) "
-                                 f"differs from {names[0]!r} (thickness {mats[0].thickness:g} m, poisson "
-                                 f"{mats[0].poisson:g}); expected one thickness and Poisson's ratio for dynamic "
-                                 "pattern runs (one modal form per pattern serves them all)")
     if presets and section.get("study", False):
         check_pattern_springs(config)
     if not presets:
@@ -758,6 +740,21 @@ def check_pattern_config(config: Mapping[str, Any]) -> None:
     for i, material in enumerate(section.get("materials", [])):
         if material not in config["materials"]:
             raise ValueError(f"pattern.materials[{i}] = {material!r}: expected a preset in materials")
+    if "dynamic" in modes and presets:
+        if section.get("influence", "fe") != "fe":
+            raise ValueError(f"pattern.modes = {modes!r} with pattern.influence = {section.get('influence')!r}: "
+                             "expected influence 'fe' (the dynamic kernel is the FE block's modal form)")
+        from .material import material_from_config as _mat
+
+        names = list(section.get("materials", []))
+        mats = [_mat(n, config["materials"]) for n in names]
+        for n, m in zip(names[1:], mats[1:]):
+            if not (math.isclose(m.thickness, mats[0].thickness, rel_tol=1e-12)
+                    and math.isclose(m.poisson, mats[0].poisson, rel_tol=1e-12)):
+                raise ValueError(f"pattern.materials: {n!r} (thickness {m.thickness:g} m, poisson {m.poisson:g}) "
+                                 f"differs from {names[0]!r} (thickness {mats[0].thickness:g} m, poisson "
+                                 f"{mats[0].poisson:g}); expected one thickness and Poisson's ratio for dynamic "
+                                 "pattern runs (one modal form per pattern serves them all)")
     for name, preset in presets.items():
         geometry = PatternGeometry.from_config(name, preset, c)
         if geometry.groove_elements < 1:

@@ -546,3 +546,171 @@ class PatternStageKernel(LayerKernel):
     def backing_force(self, force) -> np.ndarray:
         raise NotImplementedError(f"{self.name}: the force at the belt under a block is not modelled (the block's "
                                   "base reaction needs its modal participation)")
+
+
+# --------------------------------------------------------------------------------------------
+# runs and the study of the dynamic pattern runs
+# --------------------------------------------------------------------------------------------
+def kernel_from_modes(modes: xr.Dataset, material, shape, origin=(0.0, 0.0), sample_rate: float = 51200.0,
+                      n_lags: int = 256) -> PatternStageKernel:
+    """The dynamic kernel of ``material`` on a patch of ``shape`` placed at ``origin`` [m] from a modes file
+    (:func:`tyreroad.pattern_stage.pattern_modes_dataset`).
+
+    Raises
+    ------
+    ValueError
+        If the material's thickness or Poisson's ratio differ from the file's (the modal form is for those).
+    """
+    from .pattern import PatternGeometry, place_pattern
+
+    a = modes.attrs
+    for key in ("thickness", "poisson"):
+        if not math.isclose(float(getattr(material, key)), float(a[key]), rel_tol=1e-12):
+            raise ValueError(f"modes file of pattern {a.get('pattern')!r}: {key} {float(a[key]):g} differs from material "
+                             f"{material.name!r}'s {float(getattr(material, key)):g}; expected the same thickness and "
+                             "Poisson's ratio (the modal form is computed for them)")
+    geometry = PatternGeometry(str(a["pattern"]), float(a["block_length"]), float(a["block_width"]),
+                               float(a["groove_width"]), float(a["groove_depth"]), float(a["element_size"]))
+    layout = place_pattern(geometry, shape, origin)
+    return PatternStageKernel.from_form(layout, BlockModalForm.from_dataset(modes), material, sample_rate, n_lags)
+
+
+def solve_modal_run(surface: xr.Dataset, springs: xr.Dataset, modes: xr.Dataset, material, mode: str,
+                    acceleration: float, settings, sample_rate: float, n_lags: int = 256, origin=(0.0, 0.0),
+                    threads: int = 1):
+    """One run on the block's modal form: ``dynamic`` (d = a t^2 / 2 up to ``settings.d_max`` at ``sample_rate``,
+    the study's loading) or ``quasistatic`` (the uniform grid on the same form's relaxed table, element-mean field).
+
+    Returns
+    -------
+    result : tyreroad.contact.ContactResult
+    grooved : numpy.ndarray
+        bool (nx, ny).
+    info : dict
+        ``elapsed`` (the march) [s], ``alternation`` (fs/2 alternation over the run's last 20 %, relative to the
+        force there; NaN for quasi-static), ``max_spring_stiffness`` [N/m], ``natural_frequency`` (lowest) [Hz].
+    """
+    from .contact import run_loading_path
+    from .loading import IndentationPath, constant_acceleration_path, uniform_indentation_grid
+    from .pattern import groove_springs
+    from .springs import SpringTable
+    from .stability import fs2_alternation
+
+    z1 = surface["z1"].transpose("ex", "ey").values
+    c = surface.attrs.get("element_size")
+    if c is not None and not math.isclose(float(c), float(modes.attrs["element_size"]), rel_tol=1e-9):
+        raise ValueError(f"element_size differs: surface {float(c)} m, modes file {float(modes.attrs['element_size'])} m")
+    kernel = kernel_from_modes(modes, material, z1.shape, origin, sample_rate, n_lags)
+    table = SpringTable.from_dataset(springs)
+    table = SpringTable.checked(table.stiffness, table.force, table.zeta_step, z1.size)
+    grooved = kernel.layout.grooved
+    table = groove_springs(table, grooved)
+    start = time.perf_counter()
+    if mode == "quasistatic":
+        d = uniform_indentation_grid(settings.d_max, settings.quasistatic_step)
+        result = run_loading_path(IndentationPath(z1, d), table, kernel.relaxed(), settings, threads)
+        alternation = math.nan
+    elif mode == "dynamic":
+        t, d = constant_acceleration_path(float(sample_rate), float(acceleration), settings.d_max)
+        result = run_loading_path(IndentationPath(z1, d, t), table, kernel, settings, threads)
+        alternation = fs2_alternation(result.force)
+    else:
+        raise ValueError(f"mode: expected 'dynamic' or 'quasistatic', got {mode!r}")
+    elapsed = time.perf_counter() - start
+    k_max = float(np.max(table.stiffness))
+    logger.info("%s %s a = %g m/s^2: %d steps in %.3g s, F(d_max) = %.5g N, fs/2 alternation %.2e", kernel.name, mode,
+                acceleration, d.size, elapsed, result.force[-1], alternation)
+    return result, grooved, {"elapsed": elapsed, "alternation": alternation, "max_spring_stiffness": k_max,
+                             "natural_frequency": float(kernel.form.natural_frequencies(material)[0])}
+
+
+def modal_contact_dataset(result, grooved, info: dict, mode: str, acceleration: float, surface_name: str,
+                          material_name: str, pattern_name: str) -> xr.Dataset:
+    """The contact file of a run on the modal form: the study's contact dataset (the backing force is not modelled
+    on a block: NaN, said in ``backing_force_note``), the ``grooved`` mask and the run's checks."""
+    from .contact import contact_dataset
+
+    if mode == "dynamic":
+        result = dataclasses.replace(result, backing_force=np.full(np.shape(result.force), np.nan))
+    ds = contact_dataset(result, mode, acceleration, surface_name, material_name)
+    ds["grooved"] = (("ex", "ey"), np.asarray(grooved, dtype=np.int8),
+                     {"units": "1", "long_name": "element over a groove (1: never in contact, spring inactive)"})
+    ds.attrs.update({"pattern": pattern_name, "variant": "modal", "run_time_s": float(info["elapsed"]),
+                     "fs2_alternation": float(info["alternation"]),
+                     "max_spring_stiffness": float(info["max_spring_stiffness"]),
+                     "lowest_natural_frequency": float(info["natural_frequency"]),
+                     "kernel": "Radau IIA-3 stage kernel of the block's modal form (element-mean field); quasi-static: "
+                               "its relaxed table",
+                     "critical_stiffness": math.inf,
+                     "backing_force_note": "not modelled on a block (NaN): the base reaction needs the modes' "
+                                           "participation"})
+    return ds
+
+
+def dynamic_study(contacts: Sequence[xr.Dataset], modes: Sequence[xr.Dataset], study_settings) -> xr.Dataset:
+    """K(d) and K_sat of the runs on the modal forms (the study's definitions, :mod:`tyreroad.study`), per
+    material, pattern, mode and acceleration, with each run's fs/2 alternation and wall time and each pattern's
+    modal check.
+
+    Returns
+    -------
+    xarray.Dataset
+        Dim ``case`` (``material/pattern/mode_accel``) and ``indentation``.
+    """
+    from .study import case_on_grid, native_samples, saturated_stiffness
+
+    rows = []
+    for i, ds in enumerate(contacts):
+        settings = dataclasses.replace(study_settings, surface=str(ds.attrs["surface"]))
+        src = str(ds.encoding.get("source", f"modal contact #{i}"))
+        # K(d) is of the surface force; the backing force (NaN on a block: not modelled) is not read here, but
+        # native_samples also differentiates it, so the surface force stands in for that unused column
+        grid = case_on_grid(native_samples(ds.assign(backing_force=ds["force"]), src, settings), settings)
+        rows.append({"material": str(ds.attrs["material"]), "pattern": str(ds.attrs["pattern"]),
+                     "mode": str(ds.attrs["mode"]), "accel": float(ds.attrs["acceleration"]), "grid": grid,
+                     "k_sat": saturated_stiffness(settings.grid, grid["stiffness"], settings.saturation_range),
+                     "alternation": float(ds.attrs.get("fs2_alternation", math.nan)),
+                     "time": float(ds.attrs["run_time_s"]), "steps": int(ds.sizes["step"])})
+    by_pattern = {str(m.attrs["pattern"]): m for m in modes}
+
+    def var(dims, values, units, long_name):
+        return xr.Variable(dims, values, {"units": units, "long_name": long_name})
+
+    labels = [f"{r['material']}/{r['pattern']}/{r['mode']}_{r['accel']:g}" for r in rows]
+    data = {
+        "force": var(("case", "indentation"), np.array([r["grid"]["force"] for r in rows]), "N", "total contact force"),
+        "stiffness": var(("case", "indentation"), np.array([r["grid"]["stiffness"] for r in rows]), "N/m",
+                         "contact stiffness K = dF/dd"),
+        "contact_fraction": var(("case", "indentation"), np.array([r["grid"]["contact_fraction"] for r in rows]), "1",
+                                "fraction of the patch's elements in contact"),
+        "saturated_stiffness": var(("case",), np.array([r["k_sat"] for r in rows]), "N/m",
+                                   "K_sat, median of K over study.saturation_range"),
+        "fs2_alternation": var(("case",), np.array([r["alternation"] for r in rows]), "1",
+                               "fs/2 alternation over the run's last 20 % relative to the force (NaN: quasi-static)"),
+        "contact_time": var(("case",), np.array([r["time"] for r in rows]), "s", "wall time of the march"),
+        "steps": var(("case",), np.array([r["steps"] for r in rows], dtype=np.int64), "1", "steps of the run"),
+    }
+    coords = {
+        "case": ("case", labels, {"units": "1", "long_name": "material/pattern/mode_acceleration"}),
+        "material": ("case", [r["material"] for r in rows], {"units": "1", "long_name": "tread material preset"}),
+        "pattern": ("case", [r["pattern"] for r in rows], {"units": "1", "long_name": "pattern preset"}),
+        "mode": ("case", [r["mode"] for r in rows], {"units": "1", "long_name": "run mode"}),
+        "acceleration": ("case", [r["accel"] for r in rows], {"units": "m/s^2", "long_name": "indentation acceleration"}),
+        "indentation": ("indentation", study_settings.grid, {"units": "m", "long_name": "indentation d"}),
+    }
+    out = xr.Dataset(data, coords=coords)
+    names = sorted(by_pattern)
+    out = out.assign_coords(modal_pattern=("modal_pattern", names))
+    for key, units, long_name in (("modal_error", "1", "modal form against a direct FE solve at check_frequency"),
+                                  ("check_frequency", "Hz", "frequency of the modal check"),
+                                  ("modes_time_s", "s", "eigen-decomposition time"),
+                                  ("compute_time_s", "s", "modes stage time (with the check)"),
+                                  ("modal_bytes", "B", "memory of the modal form (psi, R, static)")):
+        out[key] = var(("modal_pattern",), np.array([float(by_pattern[p].attrs[key]) for p in names]), units, long_name)
+    out["lowest_natural_frequency"] = var(("modal_pattern",), np.array(
+        [float(by_pattern[p]["natural_frequency"].values[0]) for p in names]), "Hz",
+        "lowest undamped natural frequency of the block (the modes file's material)")
+    out.attrs.update({"saturation_range_m": np.asarray(study_settings.saturation_range, dtype=float),
+                      "kernel": "Radau IIA-3 stage kernel of the FE block's modal form (element-mean field), stable "
+                                "for every spring; quasistatic_0: the same form's relaxed table"})
+    return out

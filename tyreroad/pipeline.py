@@ -1030,13 +1030,17 @@ def run_pattern_study(
     io.write_dataset(ds, out_nc, {"study": dict(study_cfg), "d_max": d_max}, stage="pattern_study")
 
 
-def run_pattern_report(study_nc: str | Path, out_md: str | Path, spectrum_ncs: Sequence[str | Path] = ()) -> None:
-    """Stage ``pattern_report``: the pattern study's section (and K*(f; d0) of the analysed patterns) as
-    ``pattern.md``."""
+def run_pattern_report(study_nc: str | Path, out_md: str | Path, spectrum_ncs: Sequence[str | Path] = (),
+                       dynamic_ncs: Sequence[str | Path] = ()) -> None:
+    """Stage ``pattern_report``: the pattern study's section (and K*(f; d0) of the analysed patterns, and the dynamic
+    runs on the modal forms) as ``pattern.md``."""
     from .report.pattern import write_pattern_report
+    from .report.pattern_dynamic import dynamic_section
 
-    write_pattern_report(io.read_dataset(study_nc), out_md, source=str(study_nc),
-                         spectra=[io.read_dataset(p) for p in spectrum_ncs])
+    study = io.read_dataset(study_nc)
+    extra = [line for p in dynamic_ncs for line in dynamic_section(io.read_dataset(p), study)]
+    write_pattern_report(study, out_md, source=str(study_nc), spectra=[io.read_dataset(p) for p in spectrum_ncs],
+                         extra=extra)
 
 
 def run_pattern_modes(pattern_name: str, pattern_cfg: Mapping[str, Any], material_name: str,
@@ -1055,3 +1059,38 @@ def run_pattern_modes(pattern_name: str, pattern_cfg: Mapping[str, Any], materia
     provenance = {"pattern": {pattern_name: dict(pattern_cfg)}, "material": {material_name: dict(material.config)},
                   "element_size": float(element_size), "dynamic": cfg}
     io.write_dataset(ds, out_nc, provenance, stage="pattern_modes", material=material_name)
+
+
+def run_pattern_dynamic(surface_nc: str | Path, springs_nc: str | Path, modes_nc: str | Path, surface_name: str,
+                        material_name: str, material_cfg: Mapping[str, Any], pattern_name: str, mode: str,
+                        acceleration: float, patch_origin: Sequence[float], solver_cfg: Mapping[str, Any],
+                        greens_cfg: Mapping[str, Any], out_nc: str | Path, threads: int = 1) -> None:
+    """Stage ``pattern_dynamic``: a run on the block's modal form (:func:`tyreroad.pattern_dynamic.solve_modal_run`):
+    dynamic at ``acceleration``, or quasi-static on the same form's relaxed table."""
+    from .contact import SolverSettings
+    from .pattern_dynamic import modal_contact_dataset, solve_modal_run
+
+    settings = SolverSettings.from_config(solver_cfg)
+    material = _material(material_name, material_cfg)
+    result, grooved, info = solve_modal_run(
+        io.read_dataset(surface_nc), io.read_dataset(springs_nc, SPRING_TABLES), io.read_dataset(modes_nc), material,
+        mode, float(acceleration), settings, float(greens_cfg["sample_rate"]), int(greens_cfg["n_lags"]),
+        tuple(patch_origin), threads)
+    ds = modal_contact_dataset(result, grooved, info, mode, float(acceleration), surface_name, material_name,
+                               pattern_name)
+    provenance = {"solver": dict(solver_cfg), "patch_origin": list(patch_origin), "pattern": pattern_name,
+                  "greens": {k: greens_cfg[k] for k in ("sample_rate", "n_lags")},
+                  "material": {material_name: dict(material.config)}}
+    io.write_dataset(ds, out_nc, provenance, stage="pattern_dynamic", surface=surface_name, material=material_name)
+
+
+def run_pattern_dynamic_study(contact_ncs: Sequence[str | Path], modes_ncs: Sequence[str | Path],
+                              study_cfg: Mapping[str, Any], d_max: float, out_nc: str | Path) -> None:
+    """Stage ``pattern_dynamic_study``: K(d), K_sat of the runs on the modal forms
+    (:func:`tyreroad.pattern_dynamic.dynamic_study`)."""
+    from .pattern_dynamic import dynamic_study
+    from .study import StudySettings
+
+    settings = StudySettings.from_config(study_cfg, d_max=d_max)
+    ds = dynamic_study([io.read_dataset(p) for p in contact_ncs], [io.read_dataset(p) for p in modes_ncs], settings)
+    io.write_dataset(ds, out_nc, {"study": dict(study_cfg), "d_max": float(d_max)}, stage="pattern_dynamic_study")

@@ -53,7 +53,7 @@ STAGE_MODULES: dict[str, tuple[str, ...]] = {
     "pattern_contact": ("log", "pipeline", "pattern", "contact"),
     "pattern_study": ("log", "pipeline", "pattern", "study"),
     "pattern_stiffness_spectrum": ("log", "pipeline", "pattern_spectrum", "material"),
-    "pattern_report": ("log", "pipeline", "report.pattern"),
+    "pattern_report": ("log", "pipeline", "report.pattern", "report.pattern_dynamic"),
     "pattern_modes": ("log", "pipeline", "pattern_stage", "pattern_dynamic", "fe_pattern", "material"),
     "pattern_dynamic": ("log", "pipeline", "pattern_dynamic", "pattern", "contact", "material"),
     "pattern_dynamic_study": ("log", "pipeline", "pattern_dynamic", "study"),

@@ -149,12 +149,15 @@ def spectrum_section(spectra: Sequence[xr.Dataset], frequencies=(100.0, 1000.0, 
     return lines + [""] + notes + [""]
 
 
-def build_pattern_report(ds: xr.Dataset, source: str = "", spectra: Sequence[xr.Dataset] = ()) -> str:
-    """``pattern.md``: the title, the source, :func:`pattern_section` and :func:`spectrum_section`."""
+def build_pattern_report(ds: xr.Dataset, source: str = "", spectra: Sequence[xr.Dataset] = (),
+                         extra: Sequence[str] = ()) -> str:
+    """``pattern.md``: the title, the source, :func:`pattern_section`, :func:`spectrum_section` and ``extra``
+    lines (the dynamic runs, :func:`tyreroad.report.pattern_dynamic.dynamic_section`)."""
     head = ["# tyreroad: patterned treads", ""] + ([f"Source: `{source}`", ""] if source else [])
-    return "\n".join(head + pattern_section(ds) + spectrum_section(spectra)) + "\n"
+    return "\n".join(head + pattern_section(ds) + spectrum_section(spectra) + list(extra)) + "\n"
 
 
-def write_pattern_report(ds: xr.Dataset, path: str | Path, source: str = "", spectra: Sequence[xr.Dataset] = ()) -> Path:
+def write_pattern_report(ds: xr.Dataset, path: str | Path, source: str = "", spectra: Sequence[xr.Dataset] = (),
+                         extra: Sequence[str] = ()) -> Path:
     """Write ``pattern.md`` atomically."""
-    return write_report(build_pattern_report(ds, source, spectra), path)
+    return write_report(build_pattern_report(ds, source, spectra, extra), path)

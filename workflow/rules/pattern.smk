@@ -187,6 +187,7 @@ rule pattern_report:
     input:
         study=f"{R}/pattern/study.nc",
         spectra=pattern_spectra(),
+        dynamic=[f"{R}/pattern/dynamic.nc"] if pattern_dynamic_on() else [],
     output:
         md=f"{R}/pattern.md",
     log:
