@@ -54,6 +54,7 @@ STAGE_MODULES: dict[str, tuple[str, ...]] = {
     "pattern_study": ("log", "pipeline", "pattern", "study"),
     "pattern_stiffness_spectrum": ("log", "pipeline", "pattern_spectrum", "material"),
     "pattern_report": ("log", "pipeline", "report.pattern"),
+    "pattern_figures": ("log", "pipeline", "plots.pattern"),
 }
 
 _PACKAGE_DIR = Path(__file__).resolve().parent

@@ -332,9 +332,10 @@ def pattern_spectrum_figure(spectra: Sequence[xr.Dataset], path) -> Path:
                 for ax in (ax_k, ax_eta):
                     ax.axvline(f_n, color=colour, ls=":", lw=1.2)
         if modes:
-            notes.append(f"{name}{f' ({material})' if several_materials else ''} ({_COLOUR_NAMES[i % 10]} dotted): lowest block "
-                         "modes " + ", ".join(f"{lab} {f_n / 1e3:.2f} kHz" + ("" if f_lo <= f_n <= f_hi else
-                                                                            " (off the axis)") for f_n, lab in modes))
+            listed = ", ".join(f"{lab} {f_n / 1e3:.2f} kHz" + ("" if f_lo <= f_n <= f_hi else " (off the axis)")
+                               for f_n, lab in modes)
+            who = f"{name} ({material})" if several_materials else name
+            notes.append(f"{who} ({_COLOUR_NAMES[i % 10]} dotted): lowest block modes {listed}")
     for ax in (ax_k, ax_eta):
         ax.set_xscale("log")
         ax.set_xlim(f_lo, f_hi)
