@@ -216,6 +216,9 @@ def compliance_map_figure(greens_datasets: Sequence[xr.Dataset], path) -> Path:
     ax_cut.set_ylabel("g_ii / g_centre [-]")
     ax_cut.set_title("cut through the block's middle row (its free sides at the line ends)", fontsize=9.5)
     ax_cut.grid(True, alpha=0.3)
+    # headroom for the legend (a line per pattern) above the highest point: a small block's edges lie mid-axis
+    top = max(float(np.nanmax(edge_profile(ds)[1])) for ds in greens_datasets)
+    ax_cut.set_ylim(min(0.98, vmin - 0.02), 1 + (top - 1) / (1 - min(0.5, 0.06 + 0.07 * n)) + 0.02)
     ax_cut.legend(fontsize=9, loc="upper center")
     return _save(fig, path)
 
