@@ -431,7 +431,7 @@ def pattern_block_greens():
 def pattern_figure_files():
     """The pattern study's figures (made by the pattern_figures job): the blocks' edge softening, and K*(f; d0) on
     the patterns beside slick when pattern.stiffness_spectrum.patterns names any."""
-    if not PATTERN.get("presets"):
+    if not pattern_block_greens():  # no preset or no pattern material: no block to draw
         return []
     return [f"{R}/figures/pattern/compliance_map.png"] + ([f"{R}/figures/pattern/stiffness_spectrum.png"]
                                                           if pattern_spectra() else [])
