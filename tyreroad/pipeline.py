@@ -42,6 +42,7 @@ __all__ = [
     "run_pattern_contact",
     "run_pattern_study",
     "run_pattern_report",
+    "run_pattern_figures",
 ]
 
 
@@ -1031,15 +1032,19 @@ def run_pattern_study(
 
 
 def run_pattern_report(study_nc: str | Path, out_md: str | Path, spectrum_ncs: Sequence[str | Path] = (),
-                       dynamic_ncs: Sequence[str | Path] = ()) -> None:
+                       figure_pngs: Sequence[str | Path] = (), dynamic_ncs: Sequence[str | Path] = ()) -> None:
     """Stage ``pattern_report``: the pattern study's section (and K*(f; d0) of the analysed patterns, and the dynamic
-    runs on the modal forms) as ``pattern.md``."""
+    runs on the modal forms) as ``pattern.md``, with the figures ``figure_pngs`` (stage ``pattern_figures``) linked
+    relative to it."""
+    import os
+
     from .report.pattern import write_pattern_report
     from .report.pattern_dynamic import dynamic_section
 
     study = io.read_dataset(study_nc)
     extra = [line for p in dynamic_ncs for line in dynamic_section(io.read_dataset(p), study)]
     write_pattern_report(study, out_md, source=str(study_nc), spectra=[io.read_dataset(p) for p in spectrum_ncs],
+                         figures=[Path(os.path.relpath(p, Path(out_md).parent)).as_posix() for p in figure_pngs],
                          extra=extra)
 
 
@@ -1094,3 +1099,15 @@ def run_pattern_dynamic_study(contact_ncs: Sequence[str | Path], modes_ncs: Sequ
     settings = StudySettings.from_config(study_cfg, d_max=d_max)
     ds = dynamic_study([io.read_dataset(p) for p in contact_ncs], [io.read_dataset(p) for p in modes_ncs], settings)
     io.write_dataset(ds, out_nc, {"study": dict(study_cfg), "d_max": float(d_max)}, stage="pattern_dynamic_study")
+
+
+def run_pattern_figures(greens_ncs: Sequence[str | Path], spectrum_ncs: Sequence[str | Path],
+                        out_compliance_png: str | Path, out_spectrum_png: str | Path | None = None) -> None:
+    """Stage ``pattern_figures``: the blocks' edge softening from the pattern greens files (the patterns' block
+    tables, not the slick tread's) and, given ``out_spectrum_png``, K'(f) and eta(f) of the K* files beside the
+    slick tread's (:mod:`tyreroad.plots.pattern`)."""
+    from .plots.pattern import compliance_map_figure, pattern_spectrum_figure
+
+    compliance_map_figure([io.read_dataset(p) for p in greens_ncs], out_compliance_png)
+    if out_spectrum_png is not None:
+        pattern_spectrum_figure([io.read_dataset(p) for p in spectrum_ncs], out_spectrum_png)

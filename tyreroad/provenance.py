@@ -57,6 +57,7 @@ STAGE_MODULES: dict[str, tuple[str, ...]] = {
     "pattern_modes": ("log", "pipeline", "pattern_stage", "pattern_dynamic", "fe_pattern", "material"),
     "pattern_dynamic": ("log", "pipeline", "pattern_dynamic", "pattern", "contact", "material"),
     "pattern_dynamic_study": ("log", "pipeline", "pattern_dynamic", "study"),
+    "pattern_figures": ("log", "pipeline", "plots.pattern"),
 }
 
 _PACKAGE_DIR = Path(__file__).resolve().parent

@@ -52,6 +52,13 @@ FIGURE_CAPTIONS: dict[str, str] = {
                             "contact force, and of the belt's normal velocity just ahead of and behind the contact.",
     "sensitivity": "Sensitivity sweep: what decides claims 5–7 at each sweep point (loss factor, K_sat change of "
                    "the loss variants, density ripple, K change over the saturation range).",
+    # the pattern study's figures (results/figures/pattern/, rule pattern_figures, linked from pattern.md)
+    "compliance_map": "Patterned tread — static self-compliance g_ii of every block element normalised by the block "
+                      "centre's (a map per pattern, g_centre in its title) and the cut through the block's middle "
+                      "row: the edge softening of the blocks' free sides.",
+    "stiffness_spectrum": "Patterned tread — contact storage stiffness K′ and loss factor η = K″/K′ against frequency "
+                          "on each pattern beside the slick tread of the same patch (dashed), with the blocks' "
+                          "lowest natural frequencies (dotted).",
 }
 
 

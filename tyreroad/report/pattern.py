@@ -16,8 +16,9 @@ import xarray as xr
 
 from .claims import THRESHOLDS, count_growth_peak, saturation_change
 from .document import write_report
+from .figures import figure_caption
 
-__all__ = ["pattern_section", "spectrum_section", "build_pattern_report", "write_pattern_report"]
+__all__ = ["pattern_section", "spectrum_section", "figures_section", "build_pattern_report", "write_pattern_report"]
 
 _SLICK = "slick"  # tyreroad.pattern.SLICK (not imported: the report does not run the contact code)
 
@@ -149,15 +150,39 @@ def spectrum_section(spectra: Sequence[xr.Dataset], frequencies=(100.0, 1000.0, 
     return lines + [""] + notes + [""]
 
 
+def figures_section(figures: Sequence[str]) -> list[str]:
+    """The pattern study's figures (rule ``pattern_figures``) embedded with their captions.
+
+    Parameters
+    ----------
+    figures : sequence of str
+        Paths of the figures relative to ``pattern.md``'s folder (``figures/pattern/compliance_map.png``), in the
+        order shown; their captions come from :data:`tyreroad.report.figures.FIGURE_CAPTIONS` (by file stem).
+
+    Returns
+    -------
+    list of str
+        Markdown lines; none without figures.
+    """
+    if not figures:
+        return []
+    lines = ["## Figures of the pattern study", ""]
+    for rel in (str(f).replace("\\", "/") for f in figures):
+        lines += [f"![{Path(rel).stem}]({rel})", "", f"*{figure_caption(rel)}* (`{rel}`)", ""]
+    return lines
+
+
 def build_pattern_report(ds: xr.Dataset, source: str = "", spectra: Sequence[xr.Dataset] = (),
-                         extra: Sequence[str] = ()) -> str:
-    """``pattern.md``: the title, the source, :func:`pattern_section`, :func:`spectrum_section` and ``extra``
-    lines (the dynamic runs, :func:`tyreroad.report.pattern_dynamic.dynamic_section`)."""
+                         figures: Sequence[str] = (), extra: Sequence[str] = ()) -> str:
+    """``pattern.md``: the title, the source, :func:`pattern_section`, :func:`spectrum_section`, ``extra`` lines (the
+    dynamic runs, :func:`tyreroad.report.pattern_dynamic.dynamic_section`) and :func:`figures_section`
+    (``figures``: paths relative to ``pattern.md``'s folder)."""
     head = ["# tyreroad: patterned treads", ""] + ([f"Source: `{source}`", ""] if source else [])
-    return "\n".join(head + pattern_section(ds) + spectrum_section(spectra) + list(extra)) + "\n"
+    return "\n".join(head + pattern_section(ds) + spectrum_section(spectra) + list(extra)
+                     + figures_section(figures)) + "\n"
 
 
 def write_pattern_report(ds: xr.Dataset, path: str | Path, source: str = "", spectra: Sequence[xr.Dataset] = (),
-                         extra: Sequence[str] = ()) -> Path:
+                         figures: Sequence[str] = (), extra: Sequence[str] = ()) -> Path:
     """Write ``pattern.md`` atomically."""
-    return write_report(build_pattern_report(ds, source, spectra, extra), path)
+    return write_report(build_pattern_report(ds, source, spectra, figures, extra), path)

@@ -66,6 +66,7 @@ localrules:
     belt_rolling,
     pattern_study,
     pattern_report,
+    pattern_figures,
     pattern,
     claim6,
     report,
@@ -454,7 +455,22 @@ def pattern_modes_files():
     return [f"{R}/greens/pattern-modes/{p}.nc" for p in (PATTERN.get("presets") or {})] if pattern_dynamic_on() else []
 
 
+def pattern_block_greens():
+    """The block tables of every pattern.materials on every preset (the edge-softening figure; not the slick ones)."""
+    return [f"{R}/greens/pattern/{p}/{m}.nc" for m, p in pattern_cases() if p != "slick"]
+
+
+def pattern_figure_files():
+    """The pattern study's figures (made by the pattern_figures job): the blocks' edge softening, and K*(f; d0) on
+    the patterns beside slick when pattern.stiffness_spectrum.patterns names any."""
+    if not pattern_block_greens():  # no preset or no pattern material: no block to draw
+        return []
+    return [f"{R}/figures/pattern/compliance_map.png"] + ([f"{R}/figures/pattern/stiffness_spectrum.png"]
+                                                          if pattern_spectra() else [])
+
+
 def pattern_targets():
     if not PATTERN.get("presets"):
         return []
-    return [f"{R}/pattern/study.nc", f"{R}/pattern.md"] + ([f"{R}/pattern/dynamic.nc"] if pattern_dynamic_on() else [])
+    return [f"{R}/pattern/study.nc", f"{R}/pattern.md", *pattern_figure_files()] + (
+        [f"{R}/pattern/dynamic.nc"] if pattern_dynamic_on() else [])

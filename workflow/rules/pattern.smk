@@ -188,6 +188,7 @@ rule pattern_report:
         study=f"{R}/pattern/study.nc",
         spectra=pattern_spectra(),
         dynamic=[f"{R}/pattern/dynamic.nc"] if pattern_dynamic_on() else [],
+        figures=pattern_figure_files(),  # linked from pattern.md (rule pattern_figures)
     output:
         md=f"{R}/pattern.md",
     log:
@@ -202,3 +203,22 @@ rule pattern_report:
 rule pattern:
     input:
         pattern_targets(),
+
+
+rule pattern_figures:  # the blocks' edge softening; K*(f; d0) on the patterns beside slick (with a spectrum)
+    input:
+        greens=pattern_block_greens(),
+        spectra=pattern_spectra(),
+    output:
+        compliance=report(f"{R}/figures/pattern/compliance_map.png", caption="../report/pattern_compliance_map.rst",
+                          category="Patterned treads"),
+        **({"spectrum": report(f"{R}/figures/pattern/stiffness_spectrum.png",
+                               caption="../report/pattern_stiffness_spectrum.rst", category="Patterned treads")}
+           if pattern_spectra() else {}),
+    log:
+        f"{R}/logs/pattern/figures.log",
+    params:
+        code=SOURCE["pattern_figures"],
+    threads: 1
+    script:
+        "../scripts/pattern_figures.py"
