@@ -51,6 +51,8 @@ def test_modal_form_is_the_blocks_own_and_symmetric(setup):
     # the omitted modes' static compliance is positive semi-definite, the static table their sum
     assert np.linalg.eigvalsh(form.residual)[0] > 0
     np.testing.assert_allclose((form.psi / form.lam) @ form.psi.T + form.residual, form.static, rtol=1e-12)
+    direct_static = cell.influence(1.0, 0.0, None, "mean")
+    np.testing.assert_allclose(form.static, direct_static, rtol=0, atol=1e-12 * direct_static.max())
 
 
 def test_density_rescales_the_natural_frequencies(setup):

@@ -130,6 +130,8 @@ class BlockModalForm:
             raise ValueError(f"BlockModalForm: expected modes of the {DYNAMIC_FIELD!r} field (symmetric G), got "
                              f"{modes.field!r}")
         cell = modes.cell
+        n_x, n_y = cell.pattern.shape
+        nqy = n_y - n_y // 2
         psi, lam, classes = [], [], []
         for cls_, (lam_c, p_phi, f_phi, _static) in modes.data.items():
             for k in range(lam_c.size):
@@ -138,22 +140,23 @@ class BlockModalForm:
                         return np.zeros((p_phi.shape[0], len(q)))
                     return np.outer(p_phi[:, k], f_phi[q, k])
 
-                part = cell.influence(1.0, 0.0, None, DYNAMIC_FIELD, responder=responder).real
-                j = int(np.argmax(np.abs(np.diag(part))))
-                if not part[j, j] > 0:
-                    raise ValueError(f"mode {k} of class {cls_}: no positive diagonal in its contribution")
-                v = part[:, j] / math.sqrt(part[j, j])
-                err = float(np.max(np.abs(np.outer(v, v) - part)) / np.max(np.abs(part)))
-                if err > 1e-9:
-                    raise ValueError(f"mode {k} of class {cls_}: its contribution is not psi psi^T (error {err:.2e})")
-                psi.append(v)
+                # one column of the mode's full N x N part psi psi^T, at the source where the quarter's load is
+                # largest (quarter index (qx, qy) is block element (qx + n_x // 2, qy + n_y // 2)): psi itself
+                qx, qy = divmod(int(np.argmax(np.abs(f_phi[:, k]))), nqy)
+                source = (qx + n_x // 2) * n_y + qy + n_y // 2
+                column = cell.influence(1.0, 0.0, [source], DYNAMIC_FIELD, responder=responder).real[:, 0]
+                if not column[source] > 0:
+                    raise ValueError(f"mode {k} of class {cls_}: no positive self term at element {source}")
+                psi.append(column / math.sqrt(column[source]))
                 lam.append(float(lam_c[k]))
                 classes.append(cls_)
         psi = np.array(psi).T
         lam = np.array(lam)
         order = np.argsort(lam)
         psi, lam, classes = psi[:, order], lam[order], np.array(classes, dtype=int)[order]
-        static = cell.influence(1.0, 0.0, None, DYNAMIC_FIELD).real
+        # the static solves BlockModes already made per class (P K_1^-1 F), unfolded: no second factorisation
+        static = cell.influence(1.0, 0.0, None, DYNAMIC_FIELD,
+                                responder=lambda c, q: modes.data[c][3][:, q]).real
         static = 0.5 * (static + static.T)
         residual = static - (psi / lam) @ psi.T
         return cls(psi, lam, 0.5 * (residual + residual.T), static, float(cell.density),
