@@ -330,14 +330,15 @@ class PatternStageHistory:
         self.m = math.prod(layout.shape)
         self.depth = weights.shape[0] - 1
         d = max(self.depth, 1)
-        # w[l - 1, i, j, k] for l = 1 ... L - 1, and the residual's c[l - 1] as (3, (L - 1) 3)
-        self._wm = np.ascontiguousarray(weights[1:, :, :, :-1])
+        # per mode w_k[l][i, j] for l = 1 ... L - 1 as (K, 3, (L - 1) 3), and the residual's c[l] as (3, (L - 1) 3):
+        # each step is then one batched matrix-vector product over a contiguous window of the rings
+        self._wm = np.ascontiguousarray(weights[1:, :, :, :-1].transpose(3, 1, 0, 2).reshape(form.n_modes, STAGES, -1))
         self._wc = np.ascontiguousarray(weights[1:, :, :, -1].transpose(1, 0, 2).reshape(STAGES, -1))
         self._blocks = []
         for idx, loc in layout.blocks:
             psi = np.ascontiguousarray(form.psi[loc])
             res = np.ascontiguousarray(form.residual[np.ix_(loc, loc)])
-            self._blocks.append((idx, psi, res, np.zeros((2 * d, STAGES, form.n_modes)),
+            self._blocks.append((idx, psi, res, np.zeros((form.n_modes, 2 * d * STAGES)),
                                  np.zeros((2 * d, STAGES, idx.size))))
         self._pos = 0
         self._steps = _StepCounter()
@@ -358,7 +359,7 @@ class PatternStageHistory:
             fb = f[:, idx]
             q = fb @ psi
             for p in (self._pos, self._pos + d):
-                ring_q[p] = q
+                ring_q[:, p * STAGES:(p + 1) * STAGES] = q.T
                 ring_f[p] = fb
 
     def displacement(self, n: int) -> np.ndarray:
@@ -369,13 +370,13 @@ class PatternStageHistory:
         if terms == 0:
             return out.reshape(-1)
         lo, hi = self._pos, self._pos + terms
-        wm = self._wm[:terms]
+        wm = self._wm[:, :, : terms * STAGES]
         wc = self._wc[:, : terms * STAGES]
         for idx, psi, res, ring_q, ring_f in self._blocks:
-            # modal: hist[i, k] = sum_{l, j} w_k[l][i, j] q[l, j, k]
-            hist = np.einsum("lijk,ljk->ik", wm, ring_q[lo:hi], optimize=True)
+            # modal: hist[k, i] = sum_{l, j} w_k[l][i, j] q_k[n - l, j]
+            hist = np.matmul(wm, ring_q[:, lo * STAGES:hi * STAGES, None])[:, :, 0]  # (K, 3)
             resid = wc @ ring_f[lo:hi].reshape(terms * STAGES, -1)  # (3, N_b)
-            out[:, idx] = hist @ psi.T + resid @ res.T
+            out[:, idx] = (psi @ hist).T + resid @ res.T
         return out.reshape(-1)
 
 
