@@ -221,10 +221,12 @@ def test_stage_modules_follow_imports_and_hash_the_source(tmp_path):
     # and the report and figure 9 read its settings from tyreroad.stiffness, which imports it; claim 6's seed
     # variants get their K* from the element FRF too; the belt's mobility is the element FRF plus the belt's part;
     # the pattern's block tables come from the FE model (fe_pattern, whose flat-layer checks use the layer kernel)
-    # and its K*(f) slick reference is the element FRF; the pattern's runs and study are not
+    # and its K*(f) slick reference is the element FRF, as do its modal forms (pattern_modes); the pattern's runs
+    # (static and dynamic) and studies are not
     assert {s for s in before if before[s] != after[s]} == {"greens", "sensitivity", "stiffness_spectrum", "report",
                                                             "stiffness_figure", "claim6", "belt_mobility",
-                                                            "pattern_greens", "pattern_stiffness_spectrum"}
+                                                            "pattern_greens", "pattern_stiffness_spectrum",
+                                                            "pattern_modes"}
     (pkg / "io.py").write_text((pkg / "io.py").read_text() + "\n# a change\n")
     assert all(P.source_hash(s, pkg) != after[s] for s in P.STAGE_MODULES)  # every stage writes through io
 
