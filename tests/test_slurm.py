@@ -218,7 +218,8 @@ def _check_study_through_slurm(slurm_cluster, tmp_path, local, proc):
                                                        "belt_greens", "belt_contact", "belt_stiffness_spectrum",
                                                        "belt_rolling_greens", "belt_rolling_run",
                                                        "pattern_greens", "pattern_contact", "pattern_grooves_only",
-                                                       "pattern_stiffness_spectrum"}, \
+                                                       "pattern_stiffness_spectrum", "pattern_modes",
+                                                       "pattern_dynamic"}, \
         expected_jobs
 
     cluster = _copy_workflow(tmp_path / "cluster")
