@@ -757,7 +757,7 @@ def block_frequency_response(pattern: TreadPattern, material, frequencies, sourc
     modes = BlockModes(cell, n_modes, field) if n_modes else None
     for n, fn in enumerate(f):
         w = 2 * np.pi * fn
-        e = complex(material.quasi_static_modulus) if fn == 0 else complex(np.ravel(material.modulus(w))[0])
+        e = material.modulus_at(fn)
         out[n] = modes.influence(e, w, src) if modes else cell.influence(e, w, src, field)
     return out
 

@@ -347,6 +347,14 @@ class Material:
         s_eta = self.loss_scale * eta
         return k * np.abs(e) * (1.0 + 1j * s_eta) / np.sqrt(1.0 + s_eta * s_eta)
 
+    def modulus_at(self, frequency: float) -> complex:
+        """E at one frequency [Hz] as a complex scalar [Pa]: the quasi-static modulus at 0 (the FE solves and
+        modal forms take one modulus per solve)."""
+        f = float(frequency)
+        if f == 0.0:
+            return complex(self.quasi_static_modulus)
+        return complex(np.ravel(self.modulus(2.0 * np.pi * f))[0])
+
     @property
     def is_causal(self) -> bool:
         """False only for the seed's loss variant (loss_scale != 1 at constant |E|, no ``loss_anchor``):

@@ -185,7 +185,7 @@ class BlockModalForm:
         out = np.empty((f.size,) + self.static.shape, dtype=complex)
         for i, fi in enumerate(f):
             w = 2 * math.pi * fi
-            e = complex(material.quasi_static_modulus) if fi == 0 else complex(np.ravel(material.modulus(w))[0])
+            e = material.modulus_at(fi)
             out[i] = (self.psi / (e * self.lam - w * w)) @ self.psi.T + self.residual / e
         return out
 

@@ -61,7 +61,7 @@ class BlockResponse:
         if f == 0.0:
             return self.modes.influence(complex(self.material.quasi_static_modulus), 0.0).real
         w = 2.0 * math.pi * f
-        return self.modes.influence(complex(np.ravel(self.material.modulus(w))[0]), w)
+        return self.modes.influence(self.material.modulus_at(f), w)
 
     def frequency_influences(self, frequencies, shape, workers: int = 1) -> list[PatchInfluence]:
         """One :class:`~tyreroad.pattern.PatchInfluence` per frequency [Hz] (``shape`` must be the layout's)."""
@@ -79,7 +79,7 @@ def block_check_sources(geometry: PatternGeometry) -> dict[str, int]:
 def _modal_check(modes, cell, material, frequency: float, sources: Sequence[int]) -> float:
     """max over the sources' columns of |G_modal - G_direct| / max |G_direct| at ``frequency`` [Hz]."""
     w = 2.0 * math.pi * frequency
-    e = complex(np.ravel(material.modulus(w))[0])
+    e = material.modulus_at(frequency)
     direct = cell.influence(e, w, np.asarray(sources), modes.field)
     modal = modes.influence(e, w, np.asarray(sources))
     return float(np.max(np.abs(modal - direct)) / np.max(np.abs(direct)))

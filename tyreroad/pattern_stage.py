@@ -173,7 +173,7 @@ def pattern_modes_dataset(pattern: PatternGeometry, material, n_modes: int, chec
     n_x, n_y = pattern.block_elements
     sources = np.array([(n_x // 2) * n_y + n_y // 2, (n_x // 2) * n_y, 0])
     w = 2.0 * np.pi * float(check_frequency)
-    e = complex(np.ravel(material.modulus(w))[0])
+    e = material.modulus_at(float(check_frequency))
     logger.info("pattern %s: %d modes in %.1f s; direct complex solve at %.4g Hz for the check ...", pattern.name,
                 form.n_modes, t_modes, check_frequency)
     direct = cell.influence(e, w, sources, DYNAMIC_FIELD)
