@@ -287,6 +287,13 @@ def test_pattern_target_plans_the_figures(tmp_path):
     for png in ("compliance_map.png", "stiffness_spectrum.png"):
         assert f"results-test/figures/pattern/{png}" in out
     assert "results-test/greens/pattern/block20/tread.nc" in out
+    # the dynamic runs on the blocks' modal forms (pattern.modes with dynamic): one modes job per pattern, per pattern
+    # the quasi-static run on its relaxed table and one run per acceleration, and their study
+    counts = {line.split()[0]: int(line.split()[1]) for line in out.splitlines()
+              if len(line.split()) == 2 and line.split()[1].isdigit()}
+    assert counts.get("pattern_modes") == 2 and counts.get("pattern_dynamic") == 2 * 4, counts
+    assert counts.get("pattern_dynamic_study") == 1
+    assert "results-test/pattern/modal/iso10844-pattern/tread/block40/dynamic_500.nc" in out
     proc = subprocess.run(base + ["config/nospec.yaml"], cwd=wd, capture_output=True, text=True)
     out = proc.stdout + proc.stderr
     assert proc.returncode == 0, out[-3000:]
