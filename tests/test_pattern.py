@@ -193,7 +193,10 @@ def _pattern_config():
     (lambda p: p.update(influence="standin"),
      r"pattern.modes = \['quasistatic', 'dynamic'\] with pattern.influence = 'standin': expected influence 'fe'"),
     (lambda p: p.update(materials=["tread", "tread-thin"]),
-     r"pattern.materials: 'tread-thin' \(thickness 0.008 m, poisson 0.49\) differs from 'tread' \(thickness 0.01 m"),
+     r"pattern materials and dynamic variants: 'tread-thin' \(thickness 0.008 m, poisson 0.49\) differs from 'tread' "
+     r"\(thickness 0.01 m"),
+    (lambda p: p["dynamic"].update(variants=["tread-rho9"]),
+     r"pattern.dynamic.variants\[0\] = 'tread-rho9': expected a preset in materials"),
     (lambda p: p.update(materials=["rubber"]), r"pattern.materials\[0\] = 'rubber': expected a preset in materials"),
     (lambda p: p["presets"].update(slick=dict(p["presets"]["block20"])),
      r"pattern.presets.slick: the name 'slick' is the unpatterned reference"),

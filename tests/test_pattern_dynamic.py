@@ -241,12 +241,18 @@ def test_stage_functions_end_to_end(tmp_path):
     # (1.2e-4 here; the holds above show the kernel itself at 1e-14)
     assert runs[1].attrs["fs2_alternation"] < 1e-3
     assert np.all(runs[0]["element_force"].values[:, runs[0]["grooved"].values.astype(bool)] == 0)
+    heavy = material_from_config("tread-rho2", cfg["materials"])
+    result, grooved, info = solve_modal_run(surface, springs, modes, heavy, "dynamic", 500.0, settings, FS,
+                                            origin=(1e-3, 0.0))
+    runs.append(modal_contact_dataset(result, grooved, info, "dynamic", 500.0, "synthetic", "tread-rho2", "b4"))
     study_cfg = dict(cfg["study"], surface="synthetic")
     st = dynamic_study(runs, [modes], StudySettings.from_config(study_cfg, d_max=2.5e-4))
-    k_qs, k_dyn = st["saturated_stiffness"].values
-    assert k_dyn > k_qs > 0
+    k_qs, k_dyn, k_heavy = st["saturated_stiffness"].values
+    assert k_dyn > k_qs > 0 and k_heavy != k_dyn
+    assert st["density"].values[2] == pytest.approx(2 * st["density"].values[1], rel=1e-12)
     text = "\n".join(dynamic_section(st))
     assert "tread / b4" in text and "claim 1" in text
+    assert "claim 7, its K_sat part" in text and f"ρ×2 (tread-rho2): {100 * (k_heavy / k_dyn - 1):+.2f} %" in text
     # another material of a different thickness is refused by name
     thin = material_from_config("tread", {"tread": dict(cfg["materials"]["tread"], thickness=0.012)})
     with pytest.raises(ValueError, match="thickness 0.01 differs from material"):

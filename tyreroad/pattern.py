@@ -746,12 +746,17 @@ def check_pattern_config(config: Mapping[str, Any]) -> None:
                              "expected influence 'fe' (the dynamic kernel is the FE block's modal form)")
         from .material import material_from_config as _mat
 
-        names = list(section.get("materials", []))
+        variants = list((section.get("dynamic") or {}).get("variants", []))
+        for i, name in enumerate(variants):
+            if name not in config["materials"]:
+                raise ValueError(f"pattern.dynamic.variants[{i}] = {name!r}: expected a preset in materials")
+        names = list(section.get("materials", [])) + [v for v in variants if v not in section.get("materials", [])]
         mats = [_mat(n, config["materials"]) for n in names]
         for n, m in zip(names[1:], mats[1:]):
             if not (math.isclose(m.thickness, mats[0].thickness, rel_tol=1e-12)
                     and math.isclose(m.poisson, mats[0].poisson, rel_tol=1e-12)):
-                raise ValueError(f"pattern.materials: {n!r} (thickness {m.thickness:g} m, poisson {m.poisson:g}) "
+                raise ValueError(f"pattern materials and dynamic variants: {n!r} (thickness {m.thickness:g} m, poisson "
+                                 f"{m.poisson:g}) "
                                  f"differs from {names[0]!r} (thickness {mats[0].thickness:g} m, poisson "
                                  f"{mats[0].poisson:g}); expected one thickness and Poisson's ratio for dynamic "
                                  "pattern runs (one modal form per pattern serves them all)")

@@ -625,7 +625,8 @@ def solve_modal_run(surface: xr.Dataset, springs: xr.Dataset, modes: xr.Dataset,
     logger.info("%s %s a = %g m/s^2: %d steps in %.3g s, F(d_max) = %.5g N, fs/2 alternation %.2e", kernel.name, mode,
                 acceleration, d.size, elapsed, result.force[-1], alternation)
     return result, grooved, {"elapsed": elapsed, "alternation": alternation, "max_spring_stiffness": k_max,
-                             "natural_frequency": float(kernel.form.natural_frequencies(material)[0])}
+                             "natural_frequency": float(kernel.form.natural_frequencies(material)[0]),
+                             "loss_scale": float(material.loss_scale), "density": float(material.density)}
 
 
 def modal_contact_dataset(result, grooved, info: dict, mode: str, acceleration: float, surface_name: str,
@@ -643,6 +644,7 @@ def modal_contact_dataset(result, grooved, info: dict, mode: str, acceleration: 
                      "fs2_alternation": float(info["alternation"]),
                      "max_spring_stiffness": float(info["max_spring_stiffness"]),
                      "lowest_natural_frequency": float(info["natural_frequency"]),
+                     "loss_scale": float(info.get("loss_scale", 1.0)), "density": float(info.get("density", math.nan)),
                      "kernel": "Radau IIA-3 stage kernel of the block's modal form (element-mean field); quasi-static: "
                                "its relaxed table",
                      "critical_stiffness": math.inf,
@@ -674,6 +676,7 @@ def dynamic_study(contacts: Sequence[xr.Dataset], modes: Sequence[xr.Dataset], s
                      "mode": str(ds.attrs["mode"]), "accel": float(ds.attrs["acceleration"]), "grid": grid,
                      "k_sat": saturated_stiffness(settings.grid, grid["stiffness"], settings.saturation_range),
                      "alternation": float(ds.attrs.get("fs2_alternation", math.nan)),
+                     "loss_scale": float(ds.attrs.get("loss_scale", 1.0)), "density": float(ds.attrs.get("density", math.nan)),
                      "time": float(ds.attrs["run_time_s"]), "steps": int(ds.sizes["step"])})
     by_pattern = {str(m.attrs["pattern"]): m for m in modes}
 
@@ -700,6 +703,8 @@ def dynamic_study(contacts: Sequence[xr.Dataset], modes: Sequence[xr.Dataset], s
         "pattern": ("case", [r["pattern"] for r in rows], {"units": "1", "long_name": "pattern preset"}),
         "mode": ("case", [r["mode"] for r in rows], {"units": "1", "long_name": "run mode"}),
         "acceleration": ("case", [r["accel"] for r in rows], {"units": "m/s^2", "long_name": "indentation acceleration"}),
+        "loss_scale": ("case", [r["loss_scale"] for r in rows], {"units": "1", "long_name": "material's loss scale"}),
+        "density": ("case", [r["density"] for r in rows], {"units": "kg/m^3", "long_name": "material's density"}),
         "indentation": ("indentation", study_settings.grid, {"units": "m", "long_name": "indentation d"}),
     }
     out = xr.Dataset(data, coords=coords)

@@ -448,6 +448,10 @@ def pattern_dynamic_runs():
             continue
         runs.append(f"{R}/pattern/modal/{PATTERN_SURFACE}/{m}/{p}/quasistatic_0.nc")
         runs += [f"{R}/pattern/modal/{PATTERN_SURFACE}/{m}/{p}/dynamic_{a:g}.nc" for a in accels]
+    # the loss and density variants at the highest acceleration (the seed's claims 6 and 7 on the blocks)
+    for v in (PATTERN.get("dynamic") or {}).get("variants", []):
+        runs += [f"{R}/pattern/modal/{PATTERN_SURFACE}/{v}/{p}/dynamic_{max(accels):g}.nc"
+                 for p in (PATTERN.get("presets") or {})]
     return runs
 
 
