@@ -110,6 +110,10 @@ def test_greens_file_round_trip_marches_as_from_material(radau_greens, config):
     assert ds["stage_weight"].dims == ("dx", "dy", "lag", "stage_out", "stage_in")
     assert math.isinf(float(ds["critical_stiffness"]))
     assert ds["critical_stiffness"].attrs["method"] == STAGE_MARGIN_METHOD
+    # the margin behind it, measured densely over the unit circle and stored (512 points up to theta = pi)
+    p = ds["stage_margin"].values
+    assert p.size == 512 and ds["margin_theta"].values[-1] == pytest.approx(math.pi)
+    assert np.all(p > 1e-3) and float(ds.attrs["stage_margin_min"]) == pytest.approx(p.min())
     assert "three stages" in STAGE_MARGIN_METHOD and "not covered" in STAGE_MARGIN_METHOD
     # fidelity of the march's own transfer function, judged like the other constructions' (measured 7.0e-5)
     assert float(ds["fidelity_magnitude"]) < 1e-3 and float(ds["fidelity_phase"]) < 1e-3

@@ -208,3 +208,34 @@ def test_dense_substrate_products():
     r = rng.standard_normal(f.size) * 1e-6
     delta, _ = sub.correction(k, r, polish=False)
     np.testing.assert_allclose(delta + sub.g0 @ (k * delta), -r, atol=1e-12 * np.abs(r).max())
+
+
+def test_stage_margin_equals_a_dense_eigen_solve():
+    """p(theta) of :func:`tyreroad.stage.stage_margin` (reflection blocks) against plain numpy on the 5 x 4 patch
+    matrix of the exact G(s) at the three Radau eigenvalues, and positive on the whole circle (tread)."""
+    from tyreroad.config import load_config
+    from tyreroad.greens import element_laplace, offset_table_index, unique_offsets
+    from tyreroad.influence import offset_matrix
+    from tyreroad.material import material_from_config
+    from tyreroad.radau import radau_delta
+    from tyreroad.stage import stage_margin
+
+    material = material_from_config("tread", load_config("config/config.yaml")["materials"])
+    shape, c, fs = (5, 4), 1e-3, 51200.0
+    theta, p = stage_margin(material, shape, c, fs, n_theta=8)
+    assert np.all(p > 0)
+    offsets = unique_offsets(shape) * c
+    _, _, index = offset_table_index(shape)
+
+    def matrix(s):
+        v = element_laplace(offsets, c, np.array([s]), material.laplace_modulus(np.array([s])), material.poisson,
+                            material.density, material.thickness)[0]
+        return offset_matrix(v[index])
+
+    g0 = matrix(1e-9 + 0j).real
+    top = np.linalg.eigvalsh(0.5 * (g0 + g0.T))[-1]
+    for k in (1, 4, 7):  # theta = pi (k + 1) / 8
+        d = np.linalg.eigvals(radau_delta(np.exp(-1j * theta[k])))
+        worst = min(np.linalg.eigvalsh((np.exp(1j * np.angle(s)) * matrix(s)).real)[0]
+                    for s in d * fs) / top
+        assert p[k] == pytest.approx(worst, rel=1e-9)

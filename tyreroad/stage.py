@@ -842,9 +842,66 @@ def radau_greens(ds, material, shape):
         "critical_theta": ((), math.nan, {
             "units": "rad", "long_name": "theta = 2 pi f / fs where critical_stiffness is reached (NaN: none)"}),
     }
+    # the claim of the construction, measured densely over the unit circle (issue 23): p(theta) on the patch
+    theta, p_theta = stage_margin(material, (nx, ny), float(ds.attrs["element_size"]), fs)
+    logger.info("greens %s (radau): stability margin p(theta) over %d points of the unit circle: min %.3e of "
+                "lambda_max G(0) at theta = %.4f rad", material.name, theta.size, p_theta.min(),
+                theta[int(np.argmin(p_theta))])
+    if not np.all(p_theta > 0):
+        raise ValueError(f"greens {material.name}: the Radau stability margin p(theta) is not positive on the whole "
+                         f"unit circle (min {p_theta.min():.3e} at theta = {theta[int(np.argmin(p_theta))]:.4f} rad): "
+                         "the layer is not passive there; refused, no file written")
+    margin["stage_margin"] = (("margin_theta",), p_theta, {
+        "units": "1", "long_name": "min over the Radau eigenvalues s = d_i(e^-i theta)/h of lambda_min Herm(e^{i arg s} "
+        "G(s)) on the patch, over lambda_max G(0) (> 0: stable for every spring equal at the stages)"})
+    ds = ds.assign_coords(margin_theta=("margin_theta", theta, {"units": "rad", "long_name": "theta = 2 pi f / fs"}))
     ds = ds.assign({**variables, **margin, **fidelity.variables()})
+    ds.attrs["stage_margin_min"] = float(p_theta.min())
     ds.attrs["construction"] = STAGE_CONSTRUCTION
     ds.attrs["stage_tail_delay"] = int(kernel.stage_tail.delay) if kernel.stage_tail is not None else 0
     logger.info("greens %s (radau): %d kept block lags, %s; critical stiffness inf (%s)", material.name, n_lags,
                 "no tail" if kernel.stage_tail is None else kernel.stage_tail.describe(), "springs equal at the stages")
     return ds
+
+
+def stage_margin(material, shape, element_size: float, sample_rate: float, n_theta: int = 512) -> tuple[np.ndarray,
+                                                                                                       np.ndarray]:
+    """The stability margin of the Radau IIA-3 march densely over the unit circle, p(theta) [1].
+
+    For every theta = pi k / n_theta (k = 1 ... n_theta) and every eigenvalue d_i of the Radau generating function
+    Delta(e^{-i theta}), s = d_i / h lies in Re s > 0, and the march with springs equal at the stages is stable
+    for every spring S >= 0 if I + S^(1/2) G(s) S^(1/2) is nonsingular there; it is if Herm(e^{i phi} G(s)) is
+    positive definite for one phase phi. At phi = arg s this holds for a passive layer (s G(s) positive real);
+    p(theta) is its smallest eigenvalue over the patch matrix of the layer's exact G(s) (the element Laplace
+    kernel, :func:`tyreroad.greens.element_laplace`), min over the three d_i, relative to lambda_max G(0). The
+    patch matrices are solved on their four reflection blocks (the same eigenvalues, :mod:`tyreroad.symmetry`).
+
+    Returns
+    -------
+    theta : numpy.ndarray
+        (n_theta,) [rad].
+    margin : numpy.ndarray
+        (n_theta,) [1]; > 0 on the whole circle: stable for every spring (the construction's claim, measured).
+    """
+    from .construction import patch_support
+    from .greens import element_laplace, offset_table_index, unique_offsets
+    from .radau import radau_delta
+
+    nx, ny = (int(n) for n in shape)
+    c = float(element_size)
+    h = 1.0 / float(sample_rate)
+    theta = np.pi * np.arange(1, int(n_theta) + 1) / int(n_theta)
+    d = np.linalg.eigvals(radau_delta(np.exp(-1j * theta)))  # (n, 3)
+    s = (d / h).ravel()
+    s = s.real.clip(min=0.0) + 1j * s.imag  # Re s >= 0 up to rounding (as radau._matrix_function)
+    offsets = unique_offsets((nx, ny)) * c
+    _, _, index = offset_table_index((nx, ny))
+    values = element_laplace(offsets, c, s, material.laplace_modulus(s), material.poisson, material.density,
+                             material.thickness)  # (n 3, n_offsets)
+    tables = values[:, index]  # (n 3, 2 nx - 1, 2 ny - 1)
+    g0 = element_laplace(offsets, c, np.array([1e-9 + 0j]), material.laplace_modulus(np.array([1e-9 + 0j])),
+                         material.poisson, material.density, material.thickness)[:, index].real
+    scale = float(patch_support(-g0.astype(complex), (nx, ny), np.array([0.0]))[0, 0])  # -lambda_max G(0)
+    phases = np.angle(s)
+    out = np.array([patch_support(tables[j:j + 1], (nx, ny), phases[j:j + 1])[0, 0] for j in range(s.size)])
+    return theta, out.reshape(theta.size, 3).min(axis=1) / -scale
