@@ -247,6 +247,8 @@ def test_stage_functions_end_to_end(tmp_path):
     runs.append(modal_contact_dataset(result, grooved, info, "dynamic", 500.0, "synthetic", "tread-rho2", "b4"))
     study_cfg = dict(cfg["study"], surface="synthetic")
     st = dynamic_study(runs, [modes], StudySettings.from_config(study_cfg, d_max=2.5e-4))
+    io.write_dataset(st, tmp_path / "dynamic.nc", {})  # every variable and coordinate has its metadata
+    st = io.read_dataset(tmp_path / "dynamic.nc")
     k_qs, k_dyn, k_heavy = st["saturated_stiffness"].values
     assert k_dyn > k_qs > 0 and k_heavy != k_dyn
     assert st["density"].values[2] == pytest.approx(2 * st["density"].values[1], rel=1e-12)

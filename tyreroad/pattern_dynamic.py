@@ -709,7 +709,8 @@ def dynamic_study(contacts: Sequence[xr.Dataset], modes: Sequence[xr.Dataset], s
     }
     out = xr.Dataset(data, coords=coords)
     names = sorted(by_pattern)
-    out = out.assign_coords(modal_pattern=("modal_pattern", names))
+    out = out.assign_coords(modal_pattern=("modal_pattern", names, {"units": "1",
+                                                                   "long_name": "pattern of a modal form"}))
     for key, units, long_name in (("modal_error", "1", "modal form against a direct FE solve at check_frequency"),
                                   ("check_frequency", "Hz", "frequency of the modal check"),
                                   ("modes_time_s", "s", "eigen-decomposition time"),
