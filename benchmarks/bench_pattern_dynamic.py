@@ -2,8 +2,8 @@
 
 Reads a modes file (results/greens/pattern-modes/{pattern}.nc, rule pattern_modes) and marches a ramp to 0.2 mm in
 200 steps plus a hold (--steps in all, past the 256 kept lags so the creep tail runs) on the pattern surface's
-85 x 40 patch with linear springs (1e6 N/m: every block element in contact, the loaded sets fixed after the ramp,
-and 1e10 N/m: hard contact), tread. Prints the time per step (median over --repeats), the substrate's
+85 x 40 patch with linear springs of 1e4 and 1e6 N/m (every block element in contact; stiffer springs on a flat
+punch over whole 20 mm blocks do not converge at the first impact: see docs/pattern.md), tread. Prints the time per step (median over --repeats), the substrate's
 factorisations, the history's memory, the fs/2 alternation of the hold and the kernel's build time.
 
     PYTHONPATH=. python benchmarks/bench_pattern_dynamic.py [--pattern block20] [--steps 600] [--repeats 3]
@@ -63,7 +63,7 @@ def main() -> None:
     n_ramp = 200
     d = np.r_[np.linspace(0.0, 2e-4, n_ramp), np.full(max(args.steps - n_ramp, 0), 2e-4)]
     settings = SolverSettings(d_max=2e-4, method="dense")
-    for k in (1e6, 1e10):
+    for k in (1e4, 1e6):
         kt, ft = linear_tables(z1.size, k)
         springs = groove_springs(SpringTable.checked(kt, ft, 1e-6, z1.size), layout.grooved)
         times = []
