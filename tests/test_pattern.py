@@ -195,6 +195,9 @@ def _pattern_config():
     (lambda p: p.update(materials=["tread", "tread-thin"]),
      r"pattern materials and dynamic variants: 'tread-thin' \(thickness 0.008 m, poisson 0.49\) differs from 'tread' "
      r"\(thickness 0.01 m"),
+    (lambda p: p.update(springs_model="linear"),
+     r"springs.linear_stiffness = 1e\+08 N/m with springs.model = 'linear' with pattern.modes = \['quasistatic', "
+     r"'dynamic'\]: expected springs up to 1e\+06 N/m"),
     (lambda p: p["dynamic"].update(variants=["tread-rho9"]),
      r"pattern.dynamic.variants\[0\] = 'tread-rho9': expected a preset in materials"),
     (lambda p: p.update(materials=["rubber"]), r"pattern.materials\[0\] = 'rubber': expected a preset in materials"),
@@ -206,6 +209,8 @@ def test_pattern_config_errors_name_key_value_and_expectation(edit, message):
     check_config(copy.deepcopy(cfg))  # the shipped section is valid
     cfg["materials"]["tread-thin"] = dict(cfg["materials"]["tread"], thickness=0.008)
     edit(cfg["pattern"])
+    if "springs_model" in cfg["pattern"]:  # a springs edit, carried in the pattern section by the table above
+        cfg["springs"].update(model=cfg["pattern"].pop("springs_model"), linear_stiffness=1e8)
     with pytest.raises(ConfigError, match=message):
         check_config(cfg)
 

@@ -688,6 +688,11 @@ def pattern_study(contacts: Sequence[xr.Dataset], greens: Sequence[xr.Dataset], 
                             "K_sat = median over the saturation range"})
 
 
+#: Stiffest linear spring [N/m] of dynamic pattern runs that converges at a first impact on whole 20 mm blocks
+#: (1e6 measured to converge, 1e8 not: docs/pattern.md, "Limitation").
+PATTERN_DYNAMIC_MAX_LINEAR = 1.0e6
+
+
 def check_pattern_springs(config: Mapping[str, Any]) -> None:
     """Refuse viscoelastic (QLV) springs for pattern runs: they run elastic spring tables on a static kernel.
 
@@ -746,6 +751,16 @@ def check_pattern_config(config: Mapping[str, Any]) -> None:
                              "expected influence 'fe' (the dynamic kernel is the FE block's modal form)")
         from .material import material_from_config as _mat
 
+        springs = config.get("springs", {}) or {}
+        model = springs.get("model", "single_punch")
+        k_lin = float(springs.get("linear_stiffness", 0.0)) if model == "linear" else 0.0
+        if model == "hard" or k_lin > PATTERN_DYNAMIC_MAX_LINEAR:
+            what = ("springs.model = 'hard'" if model == "hard"
+                    else f"springs.linear_stiffness = {k_lin:g} N/m with springs.model = 'linear'")
+            raise ValueError(f"{what} with pattern.modes = {modes!r}: expected springs up to "
+                             f"{PATTERN_DYNAMIC_MAX_LINEAR:g} N/m for dynamic pattern runs (on whole blocks the stage "
+                             "forces of a first impact change sign within a step and the Newton driver cycles between "
+                             "the stages' contact sets; docs/pattern.md), or pattern.modes: [quasistatic]")
         variants = list((section.get("dynamic") or {}).get("variants", []))
         for i, name in enumerate(variants):
             if name not in config["materials"]:
