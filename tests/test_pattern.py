@@ -195,9 +195,6 @@ def _pattern_config():
     (lambda p: p.update(materials=["tread", "tread-thin"]),
      r"pattern materials and dynamic variants: 'tread-thin' \(thickness 0.008 m, poisson 0.49\) differs from 'tread' "
      r"\(thickness 0.01 m"),
-    (lambda p: p.update(springs_model="linear"),
-     r"springs.linear_stiffness = 1e\+08 N/m with springs.model = 'linear' with pattern.modes = \['quasistatic', "
-     r"'dynamic'\]: expected springs up to 1e\+06 N/m"),
     (lambda p: p["dynamic"].update(variants=["tread-rho9"]),
      r"pattern.dynamic.variants\[0\] = 'tread-rho9': expected a preset in materials"),
     (lambda p: p.update(materials=["rubber"]), r"pattern.materials\[0\] = 'rubber': expected a preset in materials"),
@@ -209,8 +206,6 @@ def test_pattern_config_errors_name_key_value_and_expectation(edit, message):
     check_config(copy.deepcopy(cfg))  # the shipped section is valid
     cfg["materials"]["tread-thin"] = dict(cfg["materials"]["tread"], thickness=0.008)
     edit(cfg["pattern"])
-    if "springs_model" in cfg["pattern"]:  # a springs edit, carried in the pattern section by the table above
-        cfg["springs"].update(model=cfg["pattern"].pop("springs_model"), linear_stiffness=1e8)
     with pytest.raises(ConfigError, match=message):
         check_config(cfg)
 
@@ -222,6 +217,21 @@ def test_pattern_study_refuses_qlv_springs_only_when_it_runs():
     cfg["pattern"]["study"] = True
     with pytest.raises(ConfigError, match=r"springs.rheology = 'qlv': expected 'elastic' for the pattern study"):
         check_config(cfg)
+
+
+def test_dynamic_pattern_runs_refuse_stiff_springs_only_when_they_run():
+    """Hard contact or linear springs above 1e6 N/m with pattern.modes dynamic: the rest of the study still plans
+    (pattern.study off); with the pattern study on, refused naming the key and the way out."""
+    cfg = load_config("config/config.yaml")
+    cfg["springs"].update(model="linear", linear_stiffness=1e8)
+    check_config(copy.deepcopy(cfg))
+    cfg["pattern"]["study"] = True
+    with pytest.raises(ConfigError, match=r"springs.linear_stiffness = 1e\+08 N/m with springs.model = 'linear' with "
+                                          r"pattern.modes = \['quasistatic', 'dynamic'\]: expected springs up to "
+                                          r"1e\+06 N/m .* or pattern.modes: \[quasistatic\]"):
+        check_config(cfg)
+    cfg["pattern"]["modes"] = ["quasistatic"]
+    check_config(cfg)
 
 
 def _attrs(units, long_name):

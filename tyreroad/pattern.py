@@ -694,7 +694,8 @@ PATTERN_DYNAMIC_MAX_LINEAR = 1.0e6
 
 
 def check_pattern_springs(config: Mapping[str, Any]) -> None:
-    """Refuse viscoelastic (QLV) springs for pattern runs: they run elastic spring tables on a static kernel.
+    """Refuse viscoelastic (QLV) springs for pattern runs (they run elastic spring tables), and for dynamic pattern
+    runs springs stiffer than :data:`PATTERN_DYNAMIC_MAX_LINEAR` (hard contact).
 
     Called at planning time when the pattern study is on (``pattern.study``) and when a pattern job is planned
     (the named target ``pattern``), so that overlays with QLV springs still plan the rest of the study.
@@ -703,6 +704,19 @@ def check_pattern_springs(config: Mapping[str, Any]) -> None:
     if rheology != "elastic":
         raise ValueError(f"springs.rheology = {rheology!r}: expected 'elastic' for the pattern study (its runs use "
                          "the elastic spring tables on a static block kernel; QLV springs on a pattern are not built)")
+    section = config.get("pattern") or {}
+    modes = list(section.get("modes", ["quasistatic"]))
+    if "dynamic" in modes:
+        springs = config.get("springs", {}) or {}
+        model = springs.get("model", "single_punch")
+        k_lin = float(springs.get("linear_stiffness", 0.0)) if model == "linear" else 0.0
+        if model == "hard" or k_lin > PATTERN_DYNAMIC_MAX_LINEAR:
+            what = ("springs.model = 'hard'" if model == "hard"
+                    else f"springs.linear_stiffness = {k_lin:g} N/m with springs.model = 'linear'")
+            raise ValueError(f"{what} with pattern.modes = {modes!r}: expected springs up to "
+                             f"{PATTERN_DYNAMIC_MAX_LINEAR:g} N/m for dynamic pattern runs (on whole blocks the stage "
+                             "forces of a first impact change sign within a step and the Newton driver cycles between "
+                             "the stages' contact sets; docs/pattern.md), or pattern.modes: [quasistatic]")
 
 
 def check_pattern_config(config: Mapping[str, Any]) -> None:
@@ -751,16 +765,6 @@ def check_pattern_config(config: Mapping[str, Any]) -> None:
                              "expected influence 'fe' (the dynamic kernel is the FE block's modal form)")
         from .material import material_from_config as _mat
 
-        springs = config.get("springs", {}) or {}
-        model = springs.get("model", "single_punch")
-        k_lin = float(springs.get("linear_stiffness", 0.0)) if model == "linear" else 0.0
-        if model == "hard" or k_lin > PATTERN_DYNAMIC_MAX_LINEAR:
-            what = ("springs.model = 'hard'" if model == "hard"
-                    else f"springs.linear_stiffness = {k_lin:g} N/m with springs.model = 'linear'")
-            raise ValueError(f"{what} with pattern.modes = {modes!r}: expected springs up to "
-                             f"{PATTERN_DYNAMIC_MAX_LINEAR:g} N/m for dynamic pattern runs (on whole blocks the stage "
-                             "forces of a first impact change sign within a step and the Newton driver cycles between "
-                             "the stages' contact sets; docs/pattern.md), or pattern.modes: [quasistatic]")
         variants = list((section.get("dynamic") or {}).get("variants", []))
         for i, name in enumerate(variants):
             if name not in config["materials"]:
