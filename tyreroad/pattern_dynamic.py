@@ -56,7 +56,7 @@ from .history import HistorySum, _StepCounter
 from .kernel import LayerKernel
 from .pattern import PatchInfluence, PatchLayout, PatternKernel
 from .radau import STAGES, radau_weights, stage_transfer
-from .stage import StageDenseSubstrate, StageKernel, StageTail
+from .stage import StageDenseSubstrate, StageKernel, StageTail, StageTailRecursion
 
 logger = logging.getLogger(__name__)
 
@@ -380,47 +380,22 @@ class PatternStageHistory:
         return out.reshape(-1)
 
 
-class PatternTailHistory:
-    """Lags l >= L by recursion (the layer's :class:`tyreroad.stage.StageTailHistory` with block matrices):
-    per term and element one state s_n = r s_{n-1} + v^T F_{n-L}; stage i of h_n = T_i z_i block by block,
-    z = sum_k amplitude_k r_k^(L-1) u_k[i] s_k."""
+class PatternTailHistory(StageTailRecursion):
+    """Lags l >= L of the pattern's stage kernel (:class:`tyreroad.stage.StageTailRecursion`): stage i of h_n =
+    T_i z_i block by block, T_i the tail's spatial factor of output stage i (an N x N block matrix)."""
 
     def __init__(self, layout: PatchLayout, tail: StageTail):
-        self.m = math.prod(layout.shape)
-        self.delay = int(tail.delay)
-        self._r = tail.r[:, None]
-        self._feed = np.ascontiguousarray(tail.v)  # (K, 3)
-        self._out = np.ascontiguousarray((tail.amplitude * tail.r ** (self.delay - 1))[None, :] * tail.u.T)  # (3, K)
+        super().__init__(tail, math.prod(layout.shape))
         shape_table = np.asarray(tail.shape_table)  # (N, N, 3)
         self._blocks = [(idx, [np.ascontiguousarray(shape_table[np.ix_(loc, loc)][:, :, i]) for i in range(STAGES)])
                         for idx, loc in layout.blocks]
-        self._states = np.zeros((tail.r.size, self.m))
-        self._delay_line = np.zeros((self.delay, STAGES, self.m))
-        self._updated_for = -1
-        self._steps = _StepCounter()
 
-    def _advance(self, n: int) -> None:
-        if n >= self.delay and self._updated_for != n:
-            self._states *= self._r
-            self._states += self._feed @ self._delay_line[n % self.delay]
-            self._updated_for = n
-
-    def displacement(self, n: int) -> np.ndarray:
-        self._steps.check_displacement(n, "PatternTailHistory")
+    def _spatial(self, z: np.ndarray) -> np.ndarray:
         out = np.zeros((STAGES, self.m))
-        if n < self.delay or self._states.shape[0] == 0:
-            return out.reshape(-1)
-        self._advance(n)
-        z = self._out @ self._states  # (3, M)
         for idx, mats in self._blocks:
             for i in range(STAGES):
                 out[i, idx] = mats[i] @ z[i, idx]
         return out.reshape(-1)
-
-    def record(self, n: int, force: np.ndarray) -> None:
-        self._steps.check_record(n, "PatternTailHistory")
-        self._advance(n)
-        self._delay_line[n % self.delay] = np.asarray(force, dtype=float).reshape(STAGES, -1)
 
 
 # --------------------------------------------------------------------------------------------
@@ -474,14 +449,15 @@ class PatternStageKernel(LayerKernel):
         static = form.static / e0  # [m/N]
         tail = StageTail.from_spectrum(np.zeros((1, 1)), spectrum, fs, n_lags)
         if tail.r.size:
-            # the spatial factor per output stage that makes a held force relax to G(0) exactly (the sum rule)
-            sums = weights.sum(axis=(0, 2))  # (3, K + 1): sum over lags and input stages
-            held = tail.held_sum()
-            shape = np.empty(static.shape + (STAGES,))
-            for i in range(STAGES):
-                kept = (form.psi * sums[i, :-1]) @ form.psi.T + form.residual * sums[i, -1]
-                shape[:, :, i] = (static - kept) / held[i]
-            tail = dataclasses.replace(tail, shape_table=shape)
+            # the spatial factor per output stage that makes a held force relax to G(0) exactly (the sum rule), from
+            # the kept weights summed over lags and input stages in modal form
+            sums = weights.sum(axis=(0, 2))  # (3, K + 1)
+            kept = np.stack([(form.psi * sums[i, :-1]) @ form.psi.T + form.residual * sums[i, -1]
+                             for i in range(STAGES)], axis=-1)  # (N, N, 3)
+            tail = tail.with_kept_sums(kept, static)
+            if np.shape(tail.shape_table)[:2] != static.shape:
+                raise ValueError(f"{material.name}: the creep tail's held sums are not positive; no sum rule for the "
+                                 "block's tail")
         else:
             tail = None
         centre = (form.block_elements[0] // 2) * form.block_elements[1] + form.block_elements[1] // 2
@@ -497,12 +473,8 @@ class PatternStageKernel(LayerKernel):
         """G(0) of the block [m/N] (element-mean field) at the material's quasi-static modulus."""
         return self.form.static / self.quasi_static_modulus
 
-    def needs_memory(self, n_steps: int | None) -> bool:
-        return n_steps is not None and n_steps > self.n_lags
-
-    def table(self, shape) -> np.ndarray:
-        raise TypeError(f"{self.name}: a patterned tread's influence is not translation invariant; it has no "
-                        "offset table")
+    needs_memory = StageKernel.needs_memory
+    table = PatternKernel.table
 
     def collaborators(self, shape, settings, workers: int = 1, n_steps: int | None = None):
         """(:class:`PatternStageSubstrate`, :class:`PatternStageHistory` [+ :class:`PatternTailHistory`])."""

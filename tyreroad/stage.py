@@ -179,11 +179,16 @@ class StageTail:
         Delta(1) 1 = 0; today's kernel's tail keeps the same sum rule). The creep fit alone misses it by its fit
         error: 5e-5 of the held force for a one-term Maxwell tread on 128 lags. Where the tail carries nothing
         (no slow terms) Q stays."""
+        return self.with_kept_sums(kept_table.sum(axis=(2, 4)), static_table)  # (x, y, i): over lags and stages in
+
+    def with_kept_sums(self, kept, static) -> "StageTail":
+        """:meth:`with_sum_rule` from the kept weights' sums: ``kept`` [..., i] = sum_{l < L} (W_l 1)_i per output
+        stage i and ``static`` [...] = G(0), over any spatial layout (offset tables, or block matrices of a patterned
+        tread, :mod:`tyreroad.pattern_dynamic`)."""
         total = self.held_sum()
         if not np.all(total > 0.0):
             return self
-        kept = kept_table.sum(axis=(2, 4))  # (x, y, i)
-        r = (np.asarray(static_table, dtype=float)[:, :, None] - kept) / total[None, None, :]
+        r = (np.asarray(static, dtype=float)[..., None] - np.asarray(kept, dtype=float)) / total
         return dataclasses.replace(self, shape_table=r)
 
     def block_weights(self, lags) -> np.ndarray:
@@ -338,22 +343,20 @@ class StageFFTHistory:
         return self._fft.field(spec).reshape(-1)
 
 
-class StageTailHistory:
-    """Lags l >= L of the stage kernel by recursion (:class:`StageTail`): per term and element one state
-    s_n = r s_{n-1} + v^T F_{n-L}; stage i of h_n = R_i (x) sum_k amplitude_k r_k^(L-1) u_k[i] s_{k,n}."""
+class StageTailRecursion:
+    """Lags l >= L of a stage kernel by recursion (:class:`StageTail`): per term and element one state
+    s_n = r s_{n-1} + v^T F_{n-L}, and the modal field z_n = sum_k amplitude_k r_k^(L-1) u_k s_{k,n} (3, M).
+    Subclasses map z_n to the displacement with the tail's spatial factors (:meth:`_spatial`): offset tables by
+    FFT (:class:`StageTailHistory`) or block matrices (:class:`tyreroad.pattern_dynamic.PatternTailHistory`)."""
 
-    def __init__(self, tail: StageTail, shape):
-        nx, ny = shape
-        self.shape = (nx, ny)
+    def __init__(self, tail: StageTail, n_elements: int):
+        self.m = int(n_elements)
         self.delay = int(tail.delay)
-        m = nx * ny
-        self._fft = _Spatial(shape)
-        self._q = np.moveaxis(self._fft.table_spectrum(_crop(tail.shape_table, shape)), 2, 0)  # (3, px, pyh)
         self._r = tail.r[:, None]
         self._feed = np.ascontiguousarray(tail.v)  # (K, 3)
         self._out = np.ascontiguousarray((tail.amplitude * tail.r ** (self.delay - 1))[None, :] * tail.u.T)  # (3, K)
-        self._states = np.zeros((tail.r.size, m))
-        self._delay_line = np.zeros((self.delay, STAGES, m))
+        self._states = np.zeros((tail.r.size, self.m))
+        self._delay_line = np.zeros((self.delay, STAGES, self.m))
         self._updated_for = -1
         self._steps = _StepCounter()
 
@@ -363,19 +366,35 @@ class StageTailHistory:
             self._states += self._feed @ self._delay_line[n % self.delay]
             self._updated_for = n
 
+    def _spatial(self, z: np.ndarray) -> np.ndarray:  # pragma: no cover - abstract
+        """Stage i of the displacement [m], (3 M,) stage-major, from the modal field z (3, M)."""
+        raise NotImplementedError
+
     def displacement(self, n: int) -> np.ndarray:
-        self._steps.check_displacement(n, "StageTailHistory")
-        nx, ny = self.shape
+        self._steps.check_displacement(n, type(self).__name__)
         if n < self.delay or self._states.shape[0] == 0:
-            return np.zeros(STAGES * nx * ny)
+            return np.zeros(STAGES * self.m)
         self._advance(n)
-        z = (self._out @ self._states).reshape(STAGES, nx, ny)
-        return self._fft.field(self._fft.spectrum(z) * self._q).reshape(-1)
+        return self._spatial(self._out @ self._states)
 
     def record(self, n: int, force: np.ndarray) -> None:
-        self._steps.check_record(n, "StageTailHistory")
+        self._steps.check_record(n, type(self).__name__)
         self._advance(n)
         self._delay_line[n % self.delay] = np.asarray(force, dtype=float).reshape(STAGES, -1)
+
+
+class StageTailHistory(StageTailRecursion):
+    """The layer's stage tail (:class:`StageTailRecursion`): stage i of h_n = R_i (x) z_i, by 2-D FFT in space."""
+
+    def __init__(self, tail: StageTail, shape):
+        nx, ny = shape
+        self.shape = (nx, ny)
+        super().__init__(tail, nx * ny)
+        self._fft = _Spatial(shape)
+        self._q = np.moveaxis(self._fft.table_spectrum(_crop(tail.shape_table, shape)), 2, 0)  # (3, px, pyh)
+
+    def _spatial(self, z: np.ndarray) -> np.ndarray:
+        return self._fft.field(self._fft.spectrum(z.reshape((STAGES,) + self.shape)) * self._q).reshape(-1)
 
 
 # --------------------------------------------------------------------------------------------
