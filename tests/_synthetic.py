@@ -109,3 +109,16 @@ def copy_workflow(dest, items=("Snakefile", "workflow", "config")) -> Path:
         src = REPO / item
         (shutil.copytree if src.is_dir() else shutil.copy)(src, dest / item)
     return dest
+
+
+def capture_figures(monkeypatch, *modules) -> list:
+    """Replace the figure modules' ``_save`` by one that keeps the figure and writes nothing; the kept figures."""
+    figs = []
+
+    def keep(fig, path):
+        figs.append(fig)
+        return path
+
+    for module in modules:
+        monkeypatch.setattr(module, "_save", keep)
+    return figs

@@ -21,15 +21,7 @@ from tyreroad.study import StudySettings, aggregate, expected_cases
 @pytest.fixture
 def captured(monkeypatch):
     """Replace the modules' ``_save`` by one that keeps the figure (and still writes nothing)."""
-    figs = []
-
-    def keep(fig, path):
-        figs.append(fig)
-        return path
-
-    monkeypatch.setattr(plots_greens, "_save", keep)
-    monkeypatch.setattr(plots_study, "_save", keep)
-    return figs
+    return _synthetic.capture_figures(monkeypatch, plots_greens, plots_study)
 
 
 def greens_like(name, e_scale=1.0, eta_scale=1.0, g_static=3.1e-5, e_qs=25e6):

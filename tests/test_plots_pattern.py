@@ -88,14 +88,7 @@ def synthetic_spectrum(pattern="b20", scale=0.5, natural=((6700.0, 7000.0), (367
 @pytest.fixture
 def captured(monkeypatch):
     """Keep the figures instead of writing them."""
-    figs = []
-
-    def keep(fig, path):
-        figs.append(fig)
-        return path
-
-    monkeypatch.setattr(pp, "_save", keep)
-    return figs
+    return _synthetic.capture_figures(monkeypatch, pp)
 
 
 def _png_is_a_picture(path, min_bytes=20_000):

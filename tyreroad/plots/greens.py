@@ -16,7 +16,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.ticker import FormatStrFormatter  # noqa: E402
 
-from ..io import atomic_path  # noqa: E402
+from . import save_png  # noqa: E402
 
 logger = logging.getLogger(__name__)
 
@@ -40,13 +40,8 @@ def _label(ds, i):
     return str(ds.attrs.get("material", f"material {i}"))
 
 
-def _save(fig, path):
-    path = Path(path)
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=150, format="png")
-    plt.close(fig)
-    logger.info("wrote %s", path)
-    return path
+def _save(fig, path) -> Path:
+    return save_png(fig, path, logger)
 
 
 def _groups(datasets, same) -> list[list[int]]:

@@ -21,7 +21,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import xarray as xr  # noqa: E402
 
-from ..io import atomic_path  # noqa: E402
+from . import save_png  # noqa: E402
 
 logger = logging.getLogger(__name__)
 
@@ -53,12 +53,7 @@ def _check(ds: xr.Dataset, required: Sequence[str], what: str, i: int) -> None:
 
 
 def _save(fig, path) -> Path:
-    path = Path(path)
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=150, format="png")
-    plt.close(fig)
-    logger.info("wrote %s", path)
-    return path
+    return save_png(fig, path, logger)
 
 
 def compliance_grid(ds: xr.Dataset) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -26,7 +26,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import xarray as xr  # noqa: E402
 
-from .. import io  # noqa: E402
+from . import save_png  # noqa: E402
 from ..study import variant_members  # noqa: E402
 
 logger = logging.getLogger(__name__)
@@ -93,12 +93,8 @@ def _caption(fig, caption: str | None) -> None:
         fig.suptitle(caption, fontsize=8, color="0.3")
 
 
-def _save(fig, path: str | Path) -> Path:
-    with io.atomic_path(path) as tmp:
-        fig.savefig(tmp, format="png", dpi=150)
-    plt.close(fig)
-    logger.info("wrote %s", path)
-    return Path(path)
+def _save(fig, path) -> Path:
+    return save_png(fig, path, logger)
 
 
 def plot_force(study: xr.Dataset, path: str | Path, reference_material: str | None = None,
