@@ -997,14 +997,7 @@ class BlockModes:
 
     def frequencies(self, material) -> dict:
         """Undamped natural frequencies sqrt(Re E(f) lambda) / 2 pi solved by fixed point [Hz], per class."""
-        out = {}
-        for cls, (lam, *_rest) in self.data.items():
-            f = np.sqrt(float(material.quasi_static_modulus) * lam) / (2 * np.pi)
-            for _ in range(30):
-                e = np.real(np.asarray(material.modulus(2 * np.pi * f)))
-                f = np.sqrt(e * lam) / (2 * np.pi)
-            out[cls] = np.sort(f)
-        return out
+        return {cls: np.sort(material.undamped_frequencies(lam)) for cls, (lam, *_rest) in self.data.items()}
 
     def influence(self, modulus: complex, omega: float, sources=None) -> np.ndarray:
         """As :meth:`BlockCell.influence`, from the modes [m/N]."""

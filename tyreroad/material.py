@@ -355,6 +355,16 @@ class Material:
             return complex(self.quasi_static_modulus)
         return complex(np.ravel(self.modulus(2.0 * np.pi * f))[0])
 
+    def undamped_frequencies(self, lam) -> np.ndarray:
+        """sqrt(Re E(f) lambda) / 2 pi [Hz] of modes whose stiffness scales with E (K_1 phi = lambda M phi,
+        lambda [1/(Pa s^2)]: a structure of this material with a frequency-independent Poisson's ratio), solved by
+        fixed point from the quasi-static modulus; in lambda's order."""
+        lam = np.asarray(lam, dtype=float)
+        f = np.sqrt(float(self.quasi_static_modulus) * lam) / (2 * np.pi)
+        for _ in range(30):
+            f = np.sqrt(np.real(np.asarray(self.modulus(2 * np.pi * f))) * lam) / (2 * np.pi)
+        return f
+
     @property
     def is_causal(self) -> bool:
         """False only for the seed's loss variant (loss_scale != 1 at constant |E|, no ``loss_anchor``):

@@ -44,6 +44,7 @@ Dynamic runs on a pattern are not built: :meth:`PatternKernel.collaborators` ref
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 import time
@@ -140,6 +141,13 @@ class PatternGeometry:
         """From one ``pattern.presets.<name>`` mapping (block_length, block_width, groove_width, groove_depth [m])."""
         return cls(name, float(preset["block_length"]), float(preset["block_width"]), float(preset["groove_width"]),
                    float(preset["groove_depth"]), float(element_size))
+
+    @classmethod
+    def from_attrs(cls, attrs: Mapping[str, Any]) -> "PatternGeometry":
+        """From the attributes a pattern file records (pattern, block_length, block_width, groove_width,
+        groove_depth, element_size): the greens and modes files of :mod:`tyreroad.pattern_stage`."""
+        return cls(str(attrs["pattern"]), float(attrs["block_length"]), float(attrs["block_width"]),
+                   float(attrs["groove_width"]), float(attrs["groove_depth"]), float(attrs["element_size"]))
 
     @property
     def block_elements(self) -> tuple[int, int]:
@@ -514,10 +522,7 @@ def kernel_from_pattern_greens(greens: xr.Dataset, shape, origin=(0.0, 0.0)) -> 
     c = float(greens.attrs["element_size"])
     if str(greens.attrs.get("kind")) == "slick":
         return LayerKernel.quasistatic(greens["g_static"].transpose("dx", "dy").values, c, name)
-    geometry = PatternGeometry(str(greens.attrs["pattern"]), float(greens.attrs["block_length"]),
-                               float(greens.attrs["block_width"]), float(greens.attrs["groove_width"]),
-                               float(greens.attrs["groove_depth"]), c)
-    layout = place_pattern(geometry, shape, origin)
+    layout = place_pattern(PatternGeometry.from_attrs(greens.attrs), shape, origin)
     return PatternKernel.from_block(layout, greens["influence"].transpose("element", "source").values, name)
 
 
@@ -580,17 +585,49 @@ def solve_pattern_run(surface: xr.Dataset, springs: xr.Dataset, greens: xr.Datas
 
 
 def pattern_contact_dataset(result, grooved, elapsed: float, surface_name: str, material_name: str,
-                            pattern_name: str, solver_path: str, variant: str = "") -> xr.Dataset:
+                            pattern_name: str, solver_path: str, variant: str = "", mode: str = "quasistatic",
+                            acceleration: float = 0.0) -> xr.Dataset:
     """The contact file of a pattern run: the study's contact dataset plus the ``grooved`` mask, the pattern's
-    name, the ``variant`` ('' or 'grooves-only', :func:`solve_pattern_run`) and the run's wall time."""
+    name, the ``variant`` ('' or 'grooves-only', :func:`solve_pattern_run`; 'modal', the runs of
+    :mod:`tyreroad.pattern_dynamic`) and the run's wall time."""
     from .contact import contact_dataset
 
-    ds = contact_dataset(result, "quasistatic", 0.0, surface_name, material_name)
+    ds = contact_dataset(result, mode, acceleration, surface_name, material_name)
     ds["grooved"] = (("ex", "ey"), np.asarray(grooved, dtype=np.int8),
                      {"units": "1", "long_name": "element over a groove (1: never in contact, spring inactive)"})
     ds.attrs.update({"pattern": pattern_name, "variant": variant, "run_time_s": float(elapsed),
                      "solver_path": solver_path})
     return ds
+
+
+def run_on_grid(ds: xr.Dataset, src: str, study_settings) -> tuple[dict, float]:
+    """A pattern run's K(d) on the study's common grid and its K_sat, with the study's definitions
+    (:func:`tyreroad.study.native_samples`, :func:`tyreroad.study.case_on_grid`,
+    :func:`tyreroad.study.saturated_stiffness`; the settings' surface is the run's)."""
+    from .study import case_on_grid, native_samples, saturated_stiffness
+
+    settings = dataclasses.replace(study_settings, surface=str(ds.attrs["surface"]))
+    grid = case_on_grid(native_samples(ds, src, settings), settings)
+    return grid, saturated_stiffness(settings.grid, grid["stiffness"], settings.saturation_range)
+
+
+def _variable(dims, values, units, long_name) -> xr.Variable:
+    return xr.Variable(dims, values, {"units": units, "long_name": long_name})
+
+
+def grid_variables(rows: Sequence[Mapping[str, Any]]) -> dict[str, xr.Variable]:
+    """``force``, ``stiffness``, ``contact_fraction`` (case, indentation) and ``saturated_stiffness`` (case) of study
+    rows (each with the ``grid`` and ``k_sat`` of :func:`run_on_grid`)."""
+    return {
+        "force": _variable(("case", "indentation"), np.array([r["grid"]["force"] for r in rows]), "N",
+                           "total contact force"),
+        "stiffness": _variable(("case", "indentation"), np.array([r["grid"]["stiffness"] for r in rows]), "N/m",
+                               "contact stiffness K = dF/dd"),
+        "contact_fraction": _variable(("case", "indentation"), np.array([r["grid"]["contact_fraction"] for r in rows]),
+                                      "1", "fraction of the patch's elements in contact"),
+        "saturated_stiffness": _variable(("case",), np.array([r["k_sat"] for r in rows]), "N/m",
+                                         "K_sat, median of K over study.saturation_range"),
+    }
 
 
 def pattern_study(contacts: Sequence[xr.Dataset], greens: Sequence[xr.Dataset], study_settings) -> xr.Dataset:
@@ -616,26 +653,19 @@ def pattern_study(contacts: Sequence[xr.Dataset], greens: Sequence[xr.Dataset], 
         ``contact_fraction``, ``saturated_stiffness``, ``slick_change`` (K_sat / K_sat(slick) - 1),
         ``grooved_fraction``, ``influence_bytes``, ``dense_patch_bytes``, ``greens_time``, ``contact_time``.
     """
-    import dataclasses
-
-    from .study import case_on_grid, native_samples, saturated_stiffness
-
     greens_of = {(str(g.attrs["material"]), str(g.attrs["pattern"])): g for g in greens}
     rows = []
     for i, ds in enumerate(contacts):
         material, pattern = str(ds.attrs["material"]), str(ds.attrs["pattern"])
         variant = str(ds.attrs.get("variant", ""))
-        settings = dataclasses.replace(study_settings, surface=str(ds.attrs["surface"]))
         src = str(ds.encoding.get("source", f"pattern contact #{i}"))
-        run = native_samples(ds, src, settings)
-        grid = case_on_grid(run, settings)
+        grid, k_sat = run_on_grid(ds, src, study_settings)
         table = SLICK if variant else pattern  # a grooves-only run is on the slick layer's table
         if (material, table) not in greens_of:
             raise ValueError(f"{src}: no pattern greens file for material {material!r}, pattern {table!r}")
         g = greens_of[(material, table)]
         n_el = int(ds.sizes["ex"] * ds.sizes["ey"])
-        rows.append({"material": material, "pattern": pattern, "variant": variant, "grid": grid,
-                     "k_sat": saturated_stiffness(settings.grid, grid["stiffness"], settings.saturation_range),
+        rows.append({"material": material, "pattern": pattern, "variant": variant, "grid": grid, "k_sat": k_sat,
                      "grooved": float(ds["grooved"].mean()) if "grooved" in ds else 0.0,
                      "bytes": int(g.attrs["influence_bytes"]), "dense": 8 * n_el * n_el,
                      "greens_time": float(g.attrs["compute_time_s"]), "contact_time": float(ds.attrs["run_time_s"]),
@@ -645,18 +675,10 @@ def pattern_study(contacts: Sequence[xr.Dataset], greens: Sequence[xr.Dataset], 
     if missing:
         raise ValueError(f"pattern study: no slick run for material(s) {missing}")
 
-    def var(dims, values, units, long_name):
-        return xr.Variable(dims, values, {"units": units, "long_name": long_name})
-
+    var = _variable
     grid_d = study_settings.grid
     data = {
-        "force": var(("case", "indentation"), np.array([r["grid"]["force"] for r in rows]), "N", "total contact force"),
-        "stiffness": var(("case", "indentation"), np.array([r["grid"]["stiffness"] for r in rows]), "N/m",
-                         "contact stiffness K = dF/dd"),
-        "contact_fraction": var(("case", "indentation"), np.array([r["grid"]["contact_fraction"] for r in rows]), "1",
-                                "fraction of the patch's elements in contact"),
-        "saturated_stiffness": var(("case",), np.array([r["k_sat"] for r in rows]), "N/m",
-                                   "K_sat, median of K over study.saturation_range"),
+        **grid_variables(rows),
         "slick_change": var(("case",), np.array([r["k_sat"] / slick[r["material"]] - 1.0 for r in rows]), "1",
                             "K_sat / K_sat of the slick tread - 1"),
         "grooved_fraction": var(("case",), np.array([r["grooved"] for r in rows]), "1",

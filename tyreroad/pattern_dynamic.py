@@ -54,7 +54,7 @@ import xarray as xr
 from . import checks
 from .history import HistorySum, _StepCounter
 from .kernel import LayerKernel
-from .pattern import PatchInfluence, PatchLayout, PatternKernel
+from .pattern import PatchLayout, PatternKernel
 from .radau import STAGES, radau_weights, stage_transfer
 from .stage import StageDenseSubstrate, StageKernel, StageTail, StageTailRecursion
 
@@ -191,10 +191,7 @@ class BlockModalForm:
 
     def natural_frequencies(self, material) -> np.ndarray:
         """sqrt(Re E(f) lambda) / 2 pi solved by fixed point [Hz] (undamped), ascending."""
-        f = np.sqrt(float(material.quasi_static_modulus) * self.lam) / (2 * np.pi)
-        for _ in range(30):
-            f = np.sqrt(np.real(np.asarray(material.modulus(2 * np.pi * f))) * self.lam) / (2 * np.pi)
-        return np.sort(f)
+        return np.sort(material.undamped_frequencies(self.lam))
 
     def to_dataset(self) -> xr.Dataset:
         """The form as the variables of a dynamic pattern greens file (docs/data_contracts.md)."""
@@ -235,12 +232,9 @@ def form_margin(form: BlockModalForm, material, sample_rate: float, n_theta: int
     > 0: I + S^(1/2) G S^(1/2) nonsingular for every spring S >= 0 equal at the stages. Also the smallest
     eigenvalue of the residual R relative to the static table's largest (>= 0 up to rounding).
     """
-    from .radau import radau_delta
+    from .radau import circle_laplace_points
 
-    h = 1.0 / float(sample_rate)
-    theta = np.linspace(0.0, np.pi, int(n_theta) + 1)[1:]
-    d = np.linalg.eigvals(radau_delta(np.exp(-1j * theta)))  # (n, 3)
-    s = (d / h).ravel()
+    s = circle_laplace_points(n_theta, sample_rate)[1].ravel()
     values = form.scalar_laplace(material)(s)  # (n 3, K + 1)
     phase = s / np.abs(s)
     scale = float(np.linalg.eigvalsh(form.static)[-1]) / float(material.quasi_static_modulus)
@@ -545,9 +539,7 @@ def kernel_from_modes(modes: xr.Dataset, material, shape, origin=(0.0, 0.0), sam
             raise ValueError(f"modes file of pattern {a.get('pattern')!r}: {key} {float(a[key]):g} differs from material "
                              f"{material.name!r}'s {float(getattr(material, key)):g}; expected the same thickness and "
                              "Poisson's ratio (the modal form is computed for them)")
-    geometry = PatternGeometry(str(a["pattern"]), float(a["block_length"]), float(a["block_width"]),
-                               float(a["groove_width"]), float(a["groove_depth"]), float(a["element_size"]))
-    layout = place_pattern(geometry, shape, origin)
+    layout = place_pattern(PatternGeometry.from_attrs(a), shape, origin)
     return PatternStageKernel.from_form(layout, BlockModalForm.from_dataset(modes), material, sample_rate, n_lags)
 
 
@@ -605,15 +597,14 @@ def modal_contact_dataset(result, grooved, info: dict, mode: str, acceleration: 
                           material_name: str, pattern_name: str) -> xr.Dataset:
     """The contact file of a run on the modal form: the study's contact dataset (the backing force is not modelled
     on a block: NaN, said in ``backing_force_note``), the ``grooved`` mask and the run's checks."""
-    from .contact import contact_dataset
+    from .pattern import pattern_contact_dataset
 
     if mode == "dynamic":
         result = dataclasses.replace(result, backing_force=np.full(np.shape(result.force), np.nan))
-    ds = contact_dataset(result, mode, acceleration, surface_name, material_name)
-    ds["grooved"] = (("ex", "ey"), np.asarray(grooved, dtype=np.int8),
-                     {"units": "1", "long_name": "element over a groove (1: never in contact, spring inactive)"})
-    ds.attrs.update({"pattern": pattern_name, "variant": "modal", "run_time_s": float(info["elapsed"]),
-                     "fs2_alternation": float(info["alternation"]),
+    path = "pattern: block-diagonal dense" + (" stages (Radau, modal)" if mode == "dynamic" else "")
+    ds = pattern_contact_dataset(result, grooved, float(info["elapsed"]), surface_name, material_name, pattern_name,
+                                 path, "modal", mode, acceleration)
+    ds.attrs.update({"fs2_alternation": float(info["alternation"]),
                      "max_spring_stiffness": float(info["max_spring_stiffness"]),
                      "lowest_natural_frequency": float(info["natural_frequency"]),
                      "loss_scale": float(info.get("loss_scale", 1.0)), "density": float(info.get("density", math.nan)),
@@ -635,18 +626,17 @@ def dynamic_study(contacts: Sequence[xr.Dataset], modes: Sequence[xr.Dataset], s
     xarray.Dataset
         Dim ``case`` (``material/pattern/mode_accel``) and ``indentation``.
     """
-    from .study import case_on_grid, native_samples, saturated_stiffness
+    from .pattern import grid_variables, run_on_grid
 
     rows = []
     for i, ds in enumerate(contacts):
-        settings = dataclasses.replace(study_settings, surface=str(ds.attrs["surface"]))
         src = str(ds.encoding.get("source", f"modal contact #{i}"))
         # K(d) is of the surface force; the backing force (NaN on a block: not modelled) is not read here, but
         # native_samples also differentiates it, so the surface force stands in for that unused column
-        grid = case_on_grid(native_samples(ds.assign(backing_force=ds["force"]), src, settings), settings)
+        grid, k_sat = run_on_grid(ds.assign(backing_force=ds["force"]), src, study_settings)
         rows.append({"material": str(ds.attrs["material"]), "pattern": str(ds.attrs["pattern"]),
                      "mode": str(ds.attrs["mode"]), "accel": float(ds.attrs["acceleration"]), "grid": grid,
-                     "k_sat": saturated_stiffness(settings.grid, grid["stiffness"], settings.saturation_range),
+                     "k_sat": k_sat,
                      "alternation": float(ds.attrs.get("fs2_alternation", math.nan)),
                      "loss_scale": float(ds.attrs.get("loss_scale", 1.0)), "density": float(ds.attrs.get("density", math.nan)),
                      "time": float(ds.attrs["run_time_s"]), "steps": int(ds.sizes["step"])})
@@ -657,13 +647,7 @@ def dynamic_study(contacts: Sequence[xr.Dataset], modes: Sequence[xr.Dataset], s
 
     labels = [f"{r['material']}/{r['pattern']}/{r['mode']}_{r['accel']:g}" for r in rows]
     data = {
-        "force": var(("case", "indentation"), np.array([r["grid"]["force"] for r in rows]), "N", "total contact force"),
-        "stiffness": var(("case", "indentation"), np.array([r["grid"]["stiffness"] for r in rows]), "N/m",
-                         "contact stiffness K = dF/dd"),
-        "contact_fraction": var(("case", "indentation"), np.array([r["grid"]["contact_fraction"] for r in rows]), "1",
-                                "fraction of the patch's elements in contact"),
-        "saturated_stiffness": var(("case",), np.array([r["k_sat"] for r in rows]), "N/m",
-                                   "K_sat, median of K over study.saturation_range"),
+        **grid_variables(rows),
         "fs2_alternation": var(("case",), np.array([r["alternation"] for r in rows]), "1",
                                "fs/2 alternation over the run's last 20 % relative to the force (NaN: quasi-static)"),
         "contact_time": var(("case",), np.array([r["time"] for r in rows]), "s", "wall time of the march"),

@@ -33,7 +33,7 @@ from .pattern import (PatchInfluence, PatchLayout, PatternGeometry, groove_sprin
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["MODAL_TOLERANCE", "BlockResponse", "block_check_sources", "pattern_stiffness_spectrum"]
+__all__ = ["MODAL_TOLERANCE", "BlockResponse", "block_check_sources", "modal_check", "pattern_stiffness_spectrum"]
 
 #: Largest relative error of the modal form against a direct solve at the highest frequency [-].
 MODAL_TOLERANCE = 0.02
@@ -76,7 +76,7 @@ def block_check_sources(geometry: PatternGeometry) -> dict[str, int]:
     return {"centre": (n_x // 2) * n_y + n_y // 2, "edge": (n_x // 2) * n_y, "corner": 0}
 
 
-def _modal_check(modes, cell, material, frequency: float, sources: Sequence[int]) -> float:
+def modal_check(modes, cell, material, frequency: float, sources: Sequence[int]) -> float:
     """max over the sources' columns of |G_modal - G_direct| / max |G_direct| at ``frequency`` [Hz]."""
     w = 2.0 * math.pi * frequency
     e = material.modulus_at(frequency)
@@ -149,7 +149,7 @@ def pattern_stiffness_spectrum(surface: xr.Dataset, springs: xr.Dataset, pattern
     modes = BlockModes(cell, int(n_modes))
     t_modes = time.perf_counter() - t0
     sources = block_check_sources(geometry)
-    modal_error = _modal_check(modes, cell, material, float(freq[-1]), list(sources.values()))
+    modal_error = modal_check(modes, cell, material, float(freq[-1]), list(sources.values()))
     static_file = pattern_greens["influence"].transpose("element", "source").values
     static_modal = modes.influence(complex(material.quasi_static_modulus), 0.0).real
     static_error = float(np.max(np.abs(static_modal - static_file)) / np.max(np.abs(static_file)))

@@ -133,6 +133,15 @@ def radau_weights(laplace: Callable, n_weights: int, dt: float, n_contour: int |
     return w * scale.reshape((-1,) + (1,) * (w.ndim - 1))
 
 
+def circle_laplace_points(n_theta: int, sample_rate: float) -> tuple[np.ndarray, np.ndarray]:
+    """theta = pi k / n_theta (k = 1 ... n_theta) [rad] and the Laplace frequencies s = d_i(e^{-i theta}) / h of the
+    three eigenvalues d_i of Delta there, shape (n_theta, 3) [rad/s]: where the Radau march evaluates a transfer
+    function on the unit circle (Re s >= 0; rounding below 0 clipped, as :func:`_matrix_function` does)."""
+    theta = np.pi * np.arange(1, int(n_theta) + 1) / int(n_theta)
+    s = np.linalg.eigvals(radau_delta(np.exp(-1j * theta))) * float(sample_rate)
+    return theta, s.real.clip(min=0.0) + 1j * s.imag
+
+
 def radau_symbol(laplace: Callable, theta, dt: float) -> np.ndarray:
     """The full (infinite-lag) kernel's block transfer function sum_l W_l e^{-i theta l} = G(Delta(e^{-i theta}) / h),
     shape (n_theta, 3, 3, ...). theta in (0, pi] (Delta is singular at theta = 0)."""

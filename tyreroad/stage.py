@@ -904,15 +904,12 @@ def stage_margin(material, shape, element_size: float, sample_rate: float, n_the
     """
     from .construction import patch_support
     from .greens import element_laplace, offset_table_index, unique_offsets
-    from .radau import radau_delta
+    from .radau import circle_laplace_points
 
     nx, ny = (int(n) for n in shape)
     c = float(element_size)
-    h = 1.0 / float(sample_rate)
-    theta = np.pi * np.arange(1, int(n_theta) + 1) / int(n_theta)
-    d = np.linalg.eigvals(radau_delta(np.exp(-1j * theta)))  # (n, 3)
-    s = (d / h).ravel()
-    s = s.real.clip(min=0.0) + 1j * s.imag  # Re s >= 0 up to rounding (as radau._matrix_function)
+    theta, s = circle_laplace_points(n_theta, sample_rate)
+    s = s.ravel()
     offsets = unique_offsets((nx, ny)) * c
     _, _, index = offset_table_index((nx, ny))
     values = element_laplace(offsets, c, s, material.laplace_modulus(s), material.poisson, material.density,
