@@ -285,8 +285,11 @@ class PatternStageSubstrate:
         n = math.prod(layout.geometry.block_elements)
         self._parts = []
         for idx, loc in layout.blocks:
+            whole = loc.size == n and np.array_equal(loc, np.arange(n))
+            # whole blocks share the one W_0 (read only; each keeps its own factors), cut blocks take their part
             rows = _stage_index(loc, n)
-            self._parts.append((_stage_index(idx, m), StageDenseSubstrate(w0_block[np.ix_(rows, rows)])))
+            self._parts.append((_stage_index(idx, m),
+                                StageDenseSubstrate(w0_block if whole else w0_block[np.ix_(rows, rows)])))
         self.self_compliance = float(np.mean(np.diag(w0_block)))
 
     @property
