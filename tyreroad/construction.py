@@ -136,7 +136,7 @@ def symbol_support(tables: np.ndarray, n_phi: int = 361, pads=None):
                                       pads if pads is not None else list(zip(_pad_sizes(nx), _pad_sizes(ny))))
 
 
-def patch_support(tables: np.ndarray, shape, phi: np.ndarray, symmetry: bool = True) -> np.ndarray:
+def patch_support(tables: np.ndarray, shape, phi: np.ndarray, symmetry: bool = True, strip: bool = False) -> np.ndarray:
     """lambda_min Herm(e^{i phi} G_d) of the patch's M x M matrices (M = nx ny), per table and phi.
 
     Parameters
@@ -150,18 +150,28 @@ def patch_support(tables: np.ndarray, shape, phi: np.ndarray, symmetry: bool = T
     symmetry : bool
         Solve on the four reflection blocks of the patch matrices (:mod:`tyreroad.symmetry`) when the tables
         are even in dx and dy (the same eigenvalues); False: the patch matrices themselves (the reference).
+    strip : bool
+        The strip bound instead (:func:`tyreroad.symmetry.strip_symbol_blocks`, even tables): a certified lower
+        bound of the patch's value, exact across the short axis, for long patches whose reflection blocks are
+        too large to eigen-solve at every theta (a rolling strip, 150 x 20: blocks of 750).
 
     Returns
     -------
     numpy.ndarray (n, len(phi)) [m/N]
     """
     from .influence import offset_matrix
-    from .symmetry import patch_blocks
+    from .symmetry import patch_blocks, strip_symbol_blocks
 
     nx, ny = shape
     cx, cy = (tables.shape[1] - 1) // 2, (tables.shape[2] - 1) // 2
     out = np.empty((tables.shape[0], len(phi)))
     crop = tables[:, cx - (nx - 1): cx + nx, cy - (ny - 1): cy + ny]
+    if strip:
+        parts = strip_symbol_blocks(crop, shape)
+        for j, f in enumerate(phi):
+            cp, sp = math.cos(f), math.sin(f)
+            out[:, j] = np.min([np.linalg.eigvalsh(cp * b - sp * c)[..., 0].min(axis=1) for b, c in parts], axis=0)
+        return out
     # the four reflection blocks (tyreroad.symmetry) carry the patch matrix's spectrum exactly, at 1/16 of the work
     blocks = patch_blocks(crop, shape) if symmetry else None
     re_t, im_t = np.ascontiguousarray(crop.real), np.ascontiguousarray(crop.imag)
@@ -337,7 +347,7 @@ def design_correction(lags: np.ndarray, tail_compliance=None, weights=(), decays
                       k_target: float = DEFAULT_K_TARGET, margin: float = 3e-7, n_taps: int = 128,
                       n_theta: int = 512, n_phi: int = 16, max_rounds: int = 12, symmetry: bool = True,
                       n_dense: int | None = None, longer_taps: int | None = None,
-                      extra_transfer=None) -> Correction:
+                      extra_transfer=None, strip: bool = False) -> Correction:
     """Design the spring-safe correction of a kernel's excitation element (see the module docstring).
 
     Parameters
@@ -367,6 +377,9 @@ def design_correction(lags: np.ndarray, tail_compliance=None, weights=(), decays
         LP rounds (phi re-chosen between rounds).
     symmetry : bool
         Eigen-solve the reflection blocks of the patch matrices (:func:`patch_support`; the same values).
+    strip : bool
+        Design on the strip bound of a long patch (:func:`patch_support` ``strip``: a lower bound of the patch's
+        lambda_min, so a target met on it is met by the patch).
     longer_taps : int, optional
         If the first target is missed, the next target up from the one met is designed once more with this
         many taps (<= L), reusing the eigenvalues solved; kept if it meets it (low-loss variants: a longer FIR
@@ -423,7 +436,7 @@ def design_correction(lags: np.ndarray, tail_compliance=None, weights=(), decays
     def solve(rows):
         rows = rows[np.isnan(h[rows, 0])]
         if rows.size:
-            h[rows] = patch_support(checked_tables[rows], shape, phi, symmetry=symmetry)
+            h[rows] = patch_support(checked_tables[rows], shape, phi, symmetry=symmetry, strip=strip)
 
     def known(values):
         return np.where(np.isnan(values), lower, values)

@@ -245,17 +245,22 @@ def build_greens(material, n_elements: Sequence[int], element_size: float, setti
     if settings.construction == "passive":
         from .construction import correct_greens
 
-        # designed against the patch's own matrices: up to the dense limit (20 x 20); a larger patch (a rolling
-        # strip, a footprint) gets the correction of its central 20 x 20 and, from the margin below, only the
-        # conservative circulant bound
-        design = (min(shape[0], 20), min(shape[1], 20))
+        # designed against the patch's own matrices up to the dense limit (20 x 20). A long narrow patch (a
+        # rolling strip, 150 x 20) is designed on its strip bound, as its margin below is evaluated: a 20 x 20
+        # design leaves tread-eta0.5's 150 x 20 strip at k_crit 3.3e4 N/m (its springs reach 6.8e4), and
+        # interlacing cannot carry a margin from a sub-patch to the whole strip. A wide patch (a footprint)
+        # gets the correction of its central 20 x 20 and, from the margin, only the conservative circulant bound
+        from .margin import uses_strip_bound
+
+        strip = uses_strip_bound(shape)
+        design = shape if strip else (min(shape[0], 20), min(shape[1], 20))
         # the targets in turn on one eigen-solve pass; checked on the margin's whole theta grid (n_dense), so a
         # target met is met by the margin below, which reuses the design's eigenvalues (same patch)
         # a low-loss variant that misses the stiffest target with 128 taps gets the next target up with 256 (the
         # longer FIR reaches it within the same fidelity budget: tread-eta0.5 9e4 -> 1.05e5 N/m)
         ds, correction = correct_greens(ds, shape=design, n_theta=256, n_phi=8, k_target=PASSIVE_TARGETS,
                                         n_dense=PASSIVE_DENSE, max_rounds=30, n_taps=PASSIVE_TAPS[0],
-                                        longer_taps=PASSIVE_TAPS[1])
+                                        longer_taps=PASSIVE_TAPS[1], strip=strip)
         for note in correction.notes:  # a target not reachable within the fidelity budget (low-loss variants)
             logger.warning("greens %s: %s", material.name, note)
         logger.info("greens %s: %s", material.name, correction.summary())

@@ -27,7 +27,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse
 
-__all__ = ["ReflectionBlocks", "is_reflection_even", "is_swap_symmetric", "patch_blocks", "fits"]
+__all__ = ["ReflectionBlocks", "is_reflection_even", "is_swap_symmetric", "patch_blocks", "fits", "strip_symbol_blocks"]
 
 
 def is_reflection_even(table: np.ndarray) -> bool:
@@ -158,3 +158,52 @@ def patch_blocks(tables: np.ndarray, shape) -> "ReflectionBlocks | None":
 def fits(blocks: "ReflectionBlocks", tables: np.ndarray) -> bool:
     """Whether ``tables`` have the symmetry ``blocks`` were made for."""
     return is_reflection_even(tables) and (not blocks.swap or is_swap_symmetric(tables))
+
+
+def strip_symbol_blocks(tables: np.ndarray, shape) -> list[tuple[np.ndarray, np.ndarray]]:
+    r"""The strip bound's matrices: a patch's offset tables wrapped circularly along its long axis only.
+
+    The patch matrix of an even offset table is block Toeplitz along the long axis (nx blocks of the short
+    axis' ny x ny matrices A_m, m = dx, A_{-m} = A_m). It is the leading principal submatrix of the block
+    circulant of the same blocks wrapped on 2 nx - 1, whose spectrum is that of the symbol's blocks
+    A^_j = sum_m A_m exp(-2 pi i j m / (2 nx - 1)), j = 0 ... nx - 1 (j and 2 nx - 1 - j are equal), and,
+    elementwise, Herm(e^{i phi} .) commutes with both steps. So (Cauchy interlacing)
+
+        lambda_min Herm(e^{i phi} G_d) of the patch >= min_j lambda_min Herm(e^{i phi} A^_j),
+
+    exact across the short axis (no truncated-offset symbol there, unlike the two-axis circulant bound) and
+    conservative along the long one only, where the kept offsets reach the far end of the strip. Each A^_j is
+    ny x ny Toeplitz and even, so it is split further into its even and odd blocks under the short axis'
+    reflection (:mod:`tyreroad.symmetry`).
+
+    Parameters
+    ----------
+    tables : numpy.ndarray
+        (n, 2 nx - 1, 2 ny - 1) complex offset tables, even in dx and dy [m/N] (larger tables are cropped).
+    shape : (int, int)
+        Patch (nx, ny); the longer axis is wrapped.
+
+    Returns
+    -------
+    list of (b, c)
+        Re and Im of the even and the odd blocks (an axis of one element has no odd part), each
+        (n, nx, m, m) for the long axis' nx wave numbers and the block size m [m/N].
+    """
+    nx, ny = (int(v) for v in shape)
+    tables = np.asarray(tables)
+    cx, cy = (tables.shape[1] - 1) // 2, (tables.shape[2] - 1) // 2
+    crop = tables[:, cx - (nx - 1): cx + nx, cy - (ny - 1): cy + ny]
+    if ny > nx:
+        crop, nx, ny = np.swapaxes(crop, 1, 2), ny, nx
+    n_wrap = 2 * nx - 1
+    wrapped = np.zeros((crop.shape[0], n_wrap, 2 * ny - 1), dtype=complex)
+    wrapped[:, np.arange(-(nx - 1), nx) % n_wrap] = crop
+    symbol = np.fft.fft(wrapped, axis=1)[:, :nx]  # (n, nx, 2 ny - 1): the short-axis table of each wave number
+    out = []
+    for odd in (False, True):
+        direct, mirror, sign, weight = _axis_fold(ny, odd)
+        if direct.shape[0] == 0:
+            continue
+        block = weight * (symbol[:, :, direct] + sign * symbol[:, :, mirror])
+        out.append((np.ascontiguousarray(block.real), np.ascontiguousarray(block.imag)))
+    return out
