@@ -401,3 +401,13 @@ def test_correction_designed_on_the_strip_bound_holds_on_the_patch(long_kernel, 
     assert strip.method == own.method == "strip" and patch.method == "patch"
     assert strip.k_crit == pytest.approx(own.k_crit, rel=1e-6)
     assert 6e4 <= strip.k_crit <= patch.k_crit * (1 + 1e-9)
+
+
+def test_which_patches_get_the_strip_bound():
+    """The default rolling strip (150 x 20, either way round) gets the strip bound; the narrow one (150 x 10,
+    blocks of 375), the study's 20 x 20 and a 40 x 40 (blocks of 400) keep the patch matrices, and a footprint
+    (150 x 200) is too wide for it."""
+    from tyreroad.margin import uses_strip_bound
+
+    assert uses_strip_bound((150, 20)) and uses_strip_bound((20, 150))
+    assert not any(uses_strip_bound(s) for s in ((150, 10), (20, 20), (40, 40), (150, 200)))
