@@ -210,6 +210,35 @@ def test_dense_substrate_products():
     np.testing.assert_allclose(delta + sub.g0 @ (k * delta), -r, atol=1e-12 * np.abs(r).max())
 
 
+def test_dense_substrate_refines_changed_stiffnesses_on_its_factors():
+    """Nonlinear springs: a correction with the same loaded set but other stiffnesses is solved by refinement on
+    the kept LU (no new factorisation) to 1e-12 of -r, as the direct solve; a stiffness that changes a lot (x10)
+    or a new loaded set gets new factors."""
+    from tyreroad.stage import StageDenseSubstrate
+
+    rng = np.random.default_rng(5)
+    shape = (3, 4)
+    sub = StageDenseSubstrate.from_table(_even_tables(rng, shape, (3, 3)) * 1e-6, shape)
+    n = 3 * 12
+    k = rng.uniform(1e5, 1e6, n) * (rng.random(n) > 0.3)
+    r = rng.standard_normal(n) * 1e-6
+
+    def exact(delta, k):
+        return np.abs(delta + sub.g0 @ (k * delta) + r).max() <= 1e-11 * np.abs(r).max()
+
+    assert exact(sub.correction(k, r, polish=False)[0], k) and sub.factorisations == 1
+    k2 = k * (1 + 0.01 * rng.standard_normal(n))  # a Newton iteration's change of tangent
+    assert exact(sub.correction(k2, r, polish=False)[0], k2)
+    assert (sub.factorisations, sub.refinements) == (1, 1)
+    k3 = k2.copy()
+    k3[np.flatnonzero(k3)[:4]] *= 10.0
+    assert exact(sub.correction(k3, r, polish=False)[0], k3)
+    assert (sub.factorisations, sub.refinements) == (2, 1)
+    k4 = k3.copy()
+    k4[np.flatnonzero(k3 == 0)[0]] = 3e5  # one more spring loaded
+    assert exact(sub.correction(k4, r, polish=False)[0], k4) and sub.factorisations == 3
+
+
 def test_stage_margin_equals_a_dense_eigen_solve():
     """p(theta) of :func:`tyreroad.stage.stage_margin` (reflection blocks) against plain numpy on the 5 x 4 patch
     matrix of the exact G(s) at the three Radau eigenvalues, and positive on the whole circle (tread)."""

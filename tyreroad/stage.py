@@ -27,8 +27,9 @@ output is the last stage (c_3 = 1, t_n). The stage system is presented to the on
   rates);
 * the **springs** are the patch's springs tiled three times (:func:`stage_springs`);
 * the **substrate** (:class:`StageDenseSubstrate`) holds the 3 M x 3 M block matrix W_0 and solves the
-  loaded block directly (LU, reused while the loaded set and its stiffnesses do not change: a hold on
-  linear springs factorises once);
+  loaded block directly (LU, kept while the loaded set does not change: a hold on linear springs factorises
+  once, and nonlinear springs, whose stiffnesses change at every Newton iteration, refine on the kept factors
+  to 1e-12 instead of refactorising);
 * the **history** is sum_{l = 1}^{L-1} W_l F_{n-l} over all stages (:class:`StageFFTHistory`, 2-D FFT in
   space, 9 block entries per lag) plus the creep beyond the kept lags (:class:`StageTailHistory`);
 * the **recorder** (:class:`StageRecorder`) keeps the last stage of every step, so a run's result has the
