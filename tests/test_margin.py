@@ -403,6 +403,16 @@ def test_correction_designed_on_the_strip_bound_holds_on_the_patch(long_kernel, 
     assert 6e4 <= strip.k_crit <= patch.k_crit * (1 + 1e-9)
 
 
+def test_strip_support_refuses_tables_that_are_not_even():
+    """The strip bound's folds assume tables even in dx and dy: others are refused, not folded wrongly."""
+    from tyreroad.construction import patch_support
+
+    table = _even_table(np.random.default_rng(2), 9, 4)
+    table[0, 0] += 1.0  # dx = -8, dy = -3 only
+    with pytest.raises(ValueError, match="even in dx and dy"):
+        patch_support(table[None], (9, 4), np.zeros(1), strip=True)
+
+
 def test_which_patches_get_the_strip_bound():
     """The default rolling strip (150 x 20, either way round) gets the strip bound; the narrow one (150 x 10,
     blocks of 375), the study's 20 x 20 and a 40 x 40 (blocks of 400) keep the patch matrices, and a footprint

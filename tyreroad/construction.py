@@ -160,13 +160,15 @@ def patch_support(tables: np.ndarray, shape, phi: np.ndarray, symmetry: bool = T
     numpy.ndarray (n, len(phi)) [m/N]
     """
     from .influence import offset_matrix
-    from .symmetry import patch_blocks, strip_symbol_blocks
+    from .symmetry import is_reflection_even, patch_blocks, strip_symbol_blocks
 
     nx, ny = shape
     cx, cy = (tables.shape[1] - 1) // 2, (tables.shape[2] - 1) // 2
     out = np.empty((tables.shape[0], len(phi)))
     crop = tables[:, cx - (nx - 1): cx + nx, cy - (ny - 1): cy + ny]
     if strip:
+        if not is_reflection_even(crop):
+            raise ValueError(f"the strip bound needs offset tables even in dx and dy; these ({shape} patch) are not")
         parts = strip_symbol_blocks(crop, shape)
         for j, f in enumerate(phi):
             cp, sp = math.cos(f), math.sin(f)
