@@ -472,6 +472,11 @@ def test_rolling_report_judges_alternation_against_the_mean_force_and_flat_road_
     assert _untrustworthy_rolling_cases(rough, THRESHOLDS) == [0]
     assert "| tread | 20 | 1.2e+05 | 4e+04 | 2.00e-04 | nan | nan | (rough road) | not judged (input near fs/2) |" in "\n".join(
         _rolling_stability_lines(rough, THRESHOLDS))
+    # springs stiffer than the certified margin (tread-eta0.5 on the default strip) are marked in the table
+    past = rough.assign(margin_critical_stiffness=("case", [6.05e4, 6.05e4, 6.05e4, np.nan]),
+                        max_spring_stiffness=("case", [6.8e4, 6.8e4, 6.8e4, np.nan]))
+    assert "| tread | 10 | 6.05e+04 | 6.8e+04 (past k_crit) | 5.00e-05 |" in "\n".join(
+        _rolling_stability_lines(past, THRESHOLDS))
 
 
 def test_top_band_amplitude_tells_an_instability_from_the_element_ripple():

@@ -963,7 +963,8 @@ def _rolling_stability_lines(study, t) -> list[str]:
         return []
     limit = t["rolling_alternation_max"]
     lines = ["", f"Stability of the dynamic passes (tyreroad.stability): the kernel's margin k_crit over the unit "
-             f"circle, the stiffest contact spring of the pass, and the fs/2 alternation of the force over the "
+             f"circle, the stiffest contact spring of the pass (marked where it exceeds k_crit: stability is then not "
+             f"certified, only measured), and the fs/2 alternation of the force over the "
              f"steady part relative to the steady mean force (limit {limit:.0e}, judged where the road's input v / "
              f"element size stays below fs/4: faster passes put real force content near fs/2); beside it, the "
              f"largest component in the top band 0.9-1 x fs/2 over the mean force and the growth of the fourth "
@@ -983,9 +984,10 @@ def _rolling_stability_lines(study, t) -> list[str]:
         verdict = "fails" if i in bad else "holds" if _alternation_is_judged(study, i) else "not judged (input near fs/2)"
         band = float(study["fs2_band_amplitude"].values[i]) if "fs2_band_amplitude" in study else np.nan
         growth = float(study["alternation_growth"].values[i]) if "alternation_growth" in study else np.nan
+        past = " (past k_crit)" if stiff > margin else ""  # NaN compares False: no mark without a margin
         lines.append(f"| {study['material'].values[i]} | {float(study['speed'].values[i]):g} | {margin:.3g} | "
-                     f"{stiff:.3g} | {float(study['fs2_alternation'].values[i]):.2e} | {band:.1e} | {growth:.2f} | "
-                     f"{holes} | {verdict} |")
+                     f"{stiff:.3g}{past} | {float(study['fs2_alternation'].values[i]):.2e} | {band:.1e} | "
+                     f"{growth:.2f} | {holes} | {verdict} |")
     if "flat_road" in study:
         for material in dict.fromkeys(study["material"].values.astype(str)):
             rows = [i for i in dynamic if str(study["material"].values[i]) == material and study["flat_road"].values[i]]
