@@ -143,6 +143,12 @@ class PatchMargin:
                    ds["critical_stiffness"].attrs.get("method", "patch"), name=str(ds.attrs.get("material", "kernel")))
 
 
+def _entry_scale(table: np.ndarray) -> float:
+    """The largest |entry| of Re / Im of a cropped transfer table [m/N]: every offset of it is an entry of the
+    patch matrix, so MARGIN_TOLERANCE times this is the rounding level of its eigenvalues."""
+    return max(float(np.abs(table.real).max()), float(np.abs(table.imag).max()))
+
+
 def _chol_ok(matrix: np.ndarray) -> bool:
     _, info = scipy.linalg.lapack.dpotrf(matrix, lower=1, clean=0, overwrite_a=1)
     return info == 0
@@ -261,7 +267,7 @@ def _strip_margin(kernel: LayerKernel, shape, bound, todo: np.ndarray, chunk: in
         tables = kernel.own_frequency_response(theta[idx] * fs / (2 * np.pi), shape)
         blocks = None
         for j, i in enumerate(idx):
-            scale = max(float(np.abs(tables[j].real).max()), float(np.abs(tables[j].imag).max()))
+            scale = _entry_scale(tables[j])
             tol = MARGIN_TOLERANCE * scale
             if i in known:
                 reused += 1
@@ -353,7 +359,7 @@ def patch_margin(kernel: LayerKernel, shape, n_theta: int = 1025, chunk: int = 6
         if lag_blocks is not None and fits(lag_blocks, probe):
             blocks = lag_blocks
     largest = max(blocks.sizes) if blocks is not None else nx * ny
-    if largest > max_dense and todo.size and min(shape) <= STRIP_MAX_WIDTH and blocks is not None:
+    if todo.size and blocks is not None and uses_strip_bound(shape, max_dense):
         return _strip_margin(kernel, shape, bound, todo, chunk, t0, support)  # blocks: the tables are even
     if largest > max_dense:
         out = PatchMargin(theta, bound.p_bound, k_safe, "circulant", seconds=time.perf_counter() - t0,
@@ -380,8 +386,7 @@ def patch_margin(kernel: LayerKernel, shape, n_theta: int = 1025, chunk: int = 6
                            kernel.name)
             ix, iy = offset_matrix_index(shape)
         for j, i in enumerate(idx):
-            # the largest |entry| of Re / Im G_d: every offset of the cropped table is an entry of the patch matrix
-            scale = max(float(np.abs(tables[j].real).max()), float(np.abs(tables[j].imag).max()))
+            scale = _entry_scale(tables[j])
             tol = MARGIN_TOLERANCE * scale
             if i in known:  # lambda_min on a phase grid already known: certified, or a lower bound of k_safe
                 reused += 1
@@ -476,7 +481,7 @@ def _support_rows(kernel, shape, theta, todo, support, blocks, checks: int = 3, 
     sample = sorted(rows)[:: max(1, len(rows) // checks)][:checks]
     tables = kernel.own_frequency_response(theta[sample] * kernel.sample_rate / (2 * np.pi), shape)
     for t, i in zip(tables, sample):
-        scale = max(float(np.abs(t.real).max()), float(np.abs(t.imag).max()))
+        scale = _entry_scale(t)
         if strip:
             mine = [(b[0], c[0]) for b, c in strip_symbol_blocks(t[None], shape)]
         elif blocks is not None:
