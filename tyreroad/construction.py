@@ -160,7 +160,7 @@ def patch_support(tables: np.ndarray, shape, phi: np.ndarray, symmetry: bool = T
     numpy.ndarray (n, len(phi)) [m/N]
     """
     from .influence import offset_matrix
-    from .symmetry import is_reflection_even, patch_blocks, strip_symbol_blocks
+    from .symmetry import is_reflection_even, patch_blocks, strip_lambda_min, strip_symbol_blocks
 
     nx, ny = shape
     cx, cy = (tables.shape[1] - 1) // 2, (tables.shape[2] - 1) // 2
@@ -171,8 +171,7 @@ def patch_support(tables: np.ndarray, shape, phi: np.ndarray, symmetry: bool = T
             raise ValueError(f"the strip bound needs offset tables even in dx and dy; these ({shape} patch) are not")
         parts = strip_symbol_blocks(crop, shape)
         for j, f in enumerate(phi):
-            cp, sp = math.cos(f), math.sin(f)
-            out[:, j] = np.min([np.linalg.eigvalsh(cp * b - sp * c)[..., 0].min(axis=1) for b, c in parts], axis=0)
+            out[:, j] = strip_lambda_min(parts, f)
         return out
     # the four reflection blocks (tyreroad.symmetry) carry the patch matrix's spectrum exactly, at 1/16 of the work
     blocks = patch_blocks(crop, shape) if symmetry else None

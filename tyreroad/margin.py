@@ -50,7 +50,7 @@ from .influence import offset_matrix_index
 from .kernel import LayerKernel
 from .solver import FFT_THRESHOLD
 from .stability import circulant_margin, mask_bands
-from .symmetry import fits, patch_blocks, strip_symbol_blocks
+from .symmetry import fits, patch_blocks, strip_lambda_min, strip_symbol_blocks
 
 logger = logging.getLogger(__name__)
 
@@ -243,12 +243,6 @@ def uses_strip_bound(shape, max_dense: int = FFT_THRESHOLD) -> bool:
     return (-(-nx // 2)) * (-(-ny // 2)) > max_dense and min(nx, ny) <= STRIP_MAX_WIDTH
 
 
-def _strip_lambda_min(blocks, phi: float) -> float:
-    """min over the strip bound's matrices of lambda_min Herm(e^{i phi} .) (one theta's blocks) [m/N]."""
-    cp, sp = math.cos(phi), math.sin(phi)
-    return float(min(np.linalg.eigvalsh(cp * b - sp * c)[..., 0].min() for b, c in blocks))
-
-
 def _strip_margin(kernel: LayerKernel, shape, bound, todo: np.ndarray, chunk: int, t0: float,
                   support=None) -> "PatchMargin":
     """:func:`patch_margin` of a long patch on the strip bound (:func:`strip_symbol_blocks`): the same steps,
@@ -283,7 +277,7 @@ def _strip_margin(kernel: LayerKernel, shape, bound, todo: np.ndarray, chunk: in
             mine = [(b[j], c[j]) for b, c in blocks]
             values = {}
             for trial in dict.fromkeys((phi, math.pi / 2, -math.pi / 2, 0.0, math.pi / 4)):
-                values[trial] = _strip_lambda_min(mine, trial)
+                values[trial] = float(strip_lambda_min(mine, trial))
                 if values[trial] > tol:
                     phi = trial
                     break
@@ -300,7 +294,7 @@ def _strip_margin(kernel: LayerKernel, shape, bound, todo: np.ndarray, chunk: in
             continue
         mine = [(b[0], c[0]) for b, c in strip_symbol_blocks(
             kernel.own_frequency_response(theta[i:i + 1] * fs / (2 * np.pi), shape), shape)]
-        _, k_full = _optimise_phase(lambda f: _strip_lambda_min(mine, f), scales[i])
+        _, k_full = _optimise_phase(lambda f: float(strip_lambda_min(mine, f)), scales[i])
         k_safe[i] = max(k_full, rung[i])  # both are lower bounds of the strip's k_safe
         best = min(best, k_safe[i])
         full += 1
@@ -491,7 +485,7 @@ def _support_rows(kernel, shape, theta, todo, support, blocks, checks: int = 3, 
             b, c = [a.real.copy()], [a.imag.copy()]
         for j in (0, s_phi.size - 1):
             if strip:
-                own = _strip_lambda_min(mine, float(s_phi[j]))
+                own = float(strip_lambda_min(mine, float(s_phi[j])))
             else:
                 own = min(_lambda_min(m) for m in _herm(b, c, float(s_phi[j])))
             if abs(own - s_h[rows[i], j]) > 1e-3 * MARGIN_TOLERANCE * scale:  # well inside the certificates' tol

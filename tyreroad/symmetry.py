@@ -24,10 +24,13 @@ still applies to it).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import scipy.sparse
 
-__all__ = ["ReflectionBlocks", "is_reflection_even", "is_swap_symmetric", "patch_blocks", "fits", "strip_symbol_blocks"]
+__all__ = ["ReflectionBlocks", "is_reflection_even", "is_swap_symmetric", "patch_blocks", "fits", "strip_symbol_blocks",
+           "strip_lambda_min"]
 
 
 def is_reflection_even(table: np.ndarray) -> bool:
@@ -207,3 +210,11 @@ def strip_symbol_blocks(tables: np.ndarray, shape) -> list[tuple[np.ndarray, np.
         block = weight * (symbol[:, :, direct] + sign * symbol[:, :, mirror])
         out.append((np.ascontiguousarray(block.real), np.ascontiguousarray(block.imag)))
     return out
+
+
+def strip_lambda_min(parts, phi: float):
+    """lambda_min Herm(e^{i phi} .) of the strip bound's matrices (:func:`strip_symbol_blocks`), the smallest over
+    the wave numbers and the even and odd blocks: one value per table, (n,), or a scalar for blocks of one table
+    ((nx, m, m)) [m/N]."""
+    cp, sp = math.cos(phi), math.sin(phi)
+    return np.min([np.linalg.eigvalsh(cp * b - sp * c)[..., 0].min(axis=-1) for b, c in parts], axis=0)
