@@ -296,6 +296,13 @@ def test_margin_from_the_designs_eigenvalues_equals_the_margin_from_its_own(trea
                                            max_rounds=30)
     kernel = LayerKernel.from_greens(ds, "dynamic")
     support = corr.margin_support()
+    # rows a Cholesky certified instead of an eigen-solve hold lower bounds of the kernel's own eigenvalues
+    theta_s, phi_s, h_s, exact = support
+    assert exact.any() and (~exact).any()
+    tables = kernel.own_frequency_response(theta_s[~exact] * FS / (2 * np.pi), SHAPE)
+    own_h = construction.patch_support(tables, SHAPE, phi_s)
+    assert np.all(h_s[~exact] <= own_h + 1e-12 * np.abs(own_h).max())
+    assert np.all(np.isclose(h_s[~exact], own_h, rtol=1e-9, atol=0).any(axis=1) == False)  # noqa: E712 (bounds)
     with caplog.at_level(logging.INFO, logger="tyreroad.margin"):
         reused = patch_margin(kernel, SHAPE, support=support)
     used = [r.getMessage() for r in caplog.records if "from the design's eigenvalues" in r.getMessage()]
@@ -310,6 +317,27 @@ def test_margin_from_the_designs_eigenvalues_equals_the_margin_from_its_own(trea
         wrong = patch_margin(kernel, SHAPE, support=(support[0], support[1], 2.0 * support[2]))
     assert "differs from the kernel's own matrices" in caplog.text
     assert wrong.k_crit == pytest.approx(own.k_crit, rel=1e-9)
+
+
+@pytest.mark.parametrize("symmetry, strip, shape", [(True, False, (6, 6)), (False, False, (5, 3)),
+                                                    (True, True, (6, 3))])
+def test_cholesky_certificate_agrees_with_the_eigenvalues(fold_kernel, symmetry, strip, shape):
+    """patch_certify proves lambda_min > -shift exactly when the eigen-solve (patch_support) says so: a shift
+    1e-6 of |lambda| above -lambda_min certifies, 1e-6 below does not (every table, three phases; a NaN pair
+    is skipped and the index of the pair that succeeded is returned)."""
+    from tyreroad import construction
+
+    theta = np.linspace(0.1, 1.0, 7) * np.pi
+    tables = fold_kernel.own_frequency_response(theta * FS / (2 * np.pi), shape)
+    for phi in (-np.pi / 3, 0.0, 0.4 * np.pi):
+        lam = construction.patch_support(tables, shape, np.array([phi]), symmetry=symmetry, strip=strip)[:, 0]
+        phases = np.full((theta.size, 3), phi)
+        eps = 1e-6 * np.abs(lam)
+        shifts = np.stack([-lam - eps, np.full(theta.size, np.nan), -lam + eps], axis=1)
+        got = construction.patch_certify(tables, shape, phases, shifts, symmetry=symmetry, strip=strip)
+        assert np.all(got == 2)
+        assert np.all(construction.patch_certify(tables, shape, phases[:, :1], shifts[:, :1], symmetry=symmetry,
+                                                 strip=strip) == -1)
 
 
 # ----------------------------------------------------------------------------------------------

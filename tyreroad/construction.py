@@ -64,7 +64,8 @@ import xarray as xr
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["Correction", "transfer_tables", "symbol_support", "patch_support", "circulant_lower_bound", "design_correction",
+__all__ = ["Correction", "transfer_tables", "symbol_support", "patch_support", "patch_certify", "circulant_lower_bound",
+           "design_correction",
            "apply_correction", "correct_greens", "default_kernel", "DEFAULT_K_TARGET"]
 
 #: Springs up to this [N/m] are designed safe (3 x the default saturated element spring 3.96e4 N/m).
@@ -91,12 +92,12 @@ def transfer_tables(lags: np.ndarray, tail_compliance: np.ndarray | None, weight
     n_lags = lags.shape[2]
     spec = np.fft.rfft(lags, n=2 * n_grid, axis=-1)  # sum_l g_l e^{-i l theta}, theta = 2 pi k / (2 n_grid)
     theta = np.pi * np.arange(n_grid + 1) / n_grid
-    tables = np.moveaxis(spec, -1, 0)
-    if tail_compliance is not None:
+    if tail_compliance is not None:  # in place, in the FFT's layout (a 20 x 20 patch's tables are 100 MB)
         z = np.exp(-1j * theta)
         c = z**n_lags * np.sum(np.asarray(weights) / (1.0 - np.asarray(decays) * z[:, None]), axis=1)
-        tables = tables + c[:, None, None] * np.asarray(tail_compliance)[None]
-    return theta, tables
+        for i, row in enumerate(np.asarray(tail_compliance, dtype=float)):
+            spec[i] += row[:, None] * c[None, :]
+    return theta, np.moveaxis(spec, -1, 0)
 
 
 def _pad_sizes(n: int) -> tuple[int, ...]:
@@ -175,15 +176,90 @@ def patch_support(tables: np.ndarray, shape, phi: np.ndarray, symmetry: bool = T
         return out
     # the four reflection blocks (tyreroad.symmetry) carry the patch matrix's spectrum exactly, at 1/16 of the work
     blocks = patch_blocks(crop, shape) if symmetry else None
-    re_t, im_t = np.ascontiguousarray(crop.real), np.ascontiguousarray(crop.imag)
+    if blocks is not None:  # every table's blocks in one sparse product per block
+        b_all, c_all = blocks.blocks(np.ascontiguousarray(crop.real)), blocks.blocks(np.ascontiguousarray(crop.imag))
     for k in range(tables.shape[0]):
         if blocks is not None:
-            bs, cs = blocks.blocks(re_t[k]), blocks.blocks(im_t[k])
+            bs, cs = [b[k] for b in b_all], [c[k] for c in c_all]
         else:
             a = offset_matrix(crop[k])
             bs, cs = [a.real.copy()], [a.imag.copy()]
         out[k] = np.min([_lambda_min_on_phases(b, c, phi) for b, c in zip(bs, cs)], axis=0)
     return out
+
+
+def patch_certify(tables: np.ndarray, shape, phi: np.ndarray, shift: np.ndarray, symmetry: bool = True,
+                  strip: bool = False) -> np.ndarray:
+    """The first of a few (phase, shift) pairs per table at which Herm(e^{i phi} G_d) + shift I is positive definite
+    on the patch (Cholesky), or -1.
+
+    Success at (phi, shift) proves lambda_min Herm(e^{i phi} G_d) > -shift: a certified lower bound, at a fraction
+    of an eigen-solve's cost (one factorisation per block, no reduction to tridiagonal form); failure proves
+    nothing. The patch's blocks are built once per table for all its pairs.
+
+    Parameters
+    ----------
+    tables : numpy.ndarray
+        (n, 2 nx - 1, 2 ny - 1) complex offset tables [m/N] (larger tables are cropped).
+    shape : (int, int)
+        Patch (nx, ny).
+    phi, shift : numpy.ndarray
+        (n, n_try) phases [rad] and shifts [m/N] per table, tried in order (NaN shift: skipped).
+    symmetry, strip : bool
+        As :func:`patch_support` (``strip``: the strip bound's matrices, so success bounds the patch's value too).
+
+    Returns
+    -------
+    numpy.ndarray (n,) of int
+        The index of the first pair that succeeded, -1 if none.
+    """
+    from .influence import offset_matrix
+    from .symmetry import is_reflection_even, patch_blocks, strip_symbol_blocks
+
+    nx, ny = shape
+    phi, shift = np.atleast_2d(phi), np.atleast_2d(shift)
+    cx, cy = (tables.shape[1] - 1) // 2, (tables.shape[2] - 1) // 2
+    crop = tables[:, cx - (nx - 1): cx + nx, cy - (ny - 1): cy + ny]
+    out = np.full(crop.shape[0], -1)
+    blocks = None
+    if strip:
+        if not is_reflection_even(crop):
+            raise ValueError(f"the strip bound needs offset tables even in dx and dy; these ({shape} patch) are not")
+        b_all, c_all = (list(v) for v in zip(*strip_symbol_blocks(crop, shape)))
+    else:
+        blocks = patch_blocks(crop, shape) if symmetry else None
+        if blocks is not None:  # every table's blocks in one sparse product per block
+            b_all = blocks.blocks(np.ascontiguousarray(crop.real))
+            c_all = blocks.blocks(np.ascontiguousarray(crop.imag))
+    for k in range(crop.shape[0]):
+        if strip or blocks is not None:
+            pairs = [(b[k], c[k]) for b, c in zip(b_all, c_all)]
+        else:
+            a = offset_matrix(crop[k])
+            pairs = [(a.real, a.imag)]
+        for t in range(phi.shape[1]):
+            if not math.isfinite(shift[k, t]):
+                continue
+            cp, sp = math.cos(phi[k, t]), math.sin(phi[k, t])
+            if all(_positive_definite(cp * b - sp * c, shift[k, t]) for b, c in pairs):
+                out[k] = t
+                break
+    return out
+
+
+def _positive_definite(m: np.ndarray, shift: float) -> bool:
+    """m + shift I positive definite, by Cholesky (a stack of matrices on the last two axes: every one); m is
+    overwritten."""
+    n = m.shape[-1]
+    if m.ndim == 2:
+        m.flat[:: n + 1] += shift
+        return scipy.linalg.lapack.dpotrf(m, lower=1, clean=0, overwrite_a=1)[1] == 0
+    m += shift * np.eye(n)
+    try:
+        np.linalg.cholesky(m)
+    except np.linalg.LinAlgError:
+        return False
+    return True
 
 
 #: Blocks up to this size are solved for all phases in one batched LAPACK call (per-call overhead dominates
@@ -281,7 +357,9 @@ class Correction:
     k_target : float
         The springs designed safe [N/m] (inf: every spring).
     slack : float
-        The LP's min over the grid of h + cos phi / k_target + Re(e^{i phi} Delta) [m/N] (>= 0: met on the grid).
+        The LP's min over the grid of h + cos phi / k_target + Re(e^{i phi} Delta) [m/N] (>= 0: met on the grid);
+        at the points a Cholesky factorisation certified instead of an eigen-solve, the certified lower bound
+        of it (there the slack asked: half the nearest solved point's, at least 1e-3 ``margin``).
     base_min_p, min_p : float
         Min over theta of p = max_phi h (+ Re e^{i phi} Delta) of the base and corrected kernel [m/N], over the
         checked points whose lambda_min was solved (the coarse grid and every point the circulant bound did
@@ -294,9 +372,12 @@ class Correction:
         [Hz].
     notes : list of str
     theta, phi, support : numpy.ndarray or None
-        The checked grid [rad] and lambda_min Herm(e^{i phi} G_d) of the *base* kernel there (n_theta, n_phi)
-        [m/N]: the corrected kernel's is support + Re(e^{i phi} Delta(theta)) exactly (Delta I on the patch),
-        which :func:`tyreroad.margin.patch_margin` reuses on the patch ``shape``.
+        The checked points known on the patch [rad] and lambda_min Herm(e^{i phi} G_d) of the *base* kernel there
+        (n_theta, n_phi) [m/N]: the corrected kernel's is support + Re(e^{i phi} Delta(theta)) exactly (Delta I
+        on the patch), which :func:`tyreroad.margin.patch_margin` reuses on the patch ``shape``.
+    exact : numpy.ndarray or None
+        (n_theta,) bool: True where ``support`` is the eigenvalues themselves; False where it is a certified
+        lower bound (a Cholesky certificate at one phase, the circulant bound at the others).
     shape : (int, int) or None
         The patch designed on.
     """
@@ -321,15 +402,18 @@ class Correction:
     theta: np.ndarray | None = field(default=None, repr=False)
     phi: np.ndarray | None = field(default=None, repr=False)
     support: np.ndarray | None = field(default=None, repr=False)
+    exact: np.ndarray | None = field(default=None, repr=False)
     shape: tuple | None = None
 
     def margin_support(self):
-        """(theta [rad], phi [rad], lambda_min Herm(e^{i phi} G_d) [m/N]) of the *corrected* kernel on the checked
-        grid (:func:`tyreroad.margin.patch_margin`'s ``support``), or None without a stored support."""
+        """(theta [rad], phi [rad], lambda_min Herm(e^{i phi} G_d) [m/N], exact) of the *corrected* kernel on the
+        checked grid (:func:`tyreroad.margin.patch_margin`'s ``support``; ``exact`` False: a certified lower
+        bound), or None without a stored support."""
         if self.support is None:
             return None
         delta = _fir(self.taps.size, self.theta) @ self.taps
-        return self.theta, self.phi, self.support + (np.exp(1j * self.phi)[None, :] * delta[:, None]).real
+        exact = np.ones(self.theta.size, dtype=bool) if self.exact is None else self.exact
+        return self.theta, self.phi, self.support + (np.exp(1j * self.phi)[None, :] * delta[:, None]).real, exact
 
     def summary(self) -> str:
         return (f"spring-safe correction: {self.taps.size} taps on the excitation element, sum|c| {self.sum_abs:.3g} m/N "
@@ -442,6 +526,42 @@ def design_correction(lags: np.ndarray, tail_compliance=None, weights=(), decays
     def known(values):
         return np.where(np.isnan(values), lower, values)
 
+    tiny = 1e-3 * max(margin, 1e-300)
+    raised = np.zeros(theta.size, dtype=bool)  # rows whose lower bound a Cholesky certificate raised
+
+    def certify(rows, allowance, delta):
+        """Raise ``lower`` where a Cholesky factorisation proves the slack > 0 at one phase, on rows whose
+        lambda_min is not solved: at the phase best at the nearest solved row, asking half of that row's slack
+        (so that later rounds' small changes of Delta stay cleared), then ``tiny``; then at the bound's best."""
+        rows = rows[np.isnan(h[rows, 0])]
+        solved = np.flatnonzero(~np.isnan(h[:, 0]))
+        if not rows.size or not solved.size:
+            return
+        rot = (np.exp(1j * phi)[None, :] * delta[:, None]).real + allowance
+        v = h[solved] + rot[solved]
+        j_solved = v.argmax(axis=1)
+        if theta[-1] == np.pi and solved[-1] == theta.size - 1:
+            j_solved[-1] = j0
+        v_solved = v[np.arange(solved.size), j_solved]
+        pos = np.clip(np.searchsorted(solved, rows), 1, solved.size) - 1
+        after = np.minimum(pos + 1, solved.size - 1)
+        pos = np.where(np.abs(solved[after] - rows) < np.abs(solved[pos] - rows), after, pos)
+        j_bound = (lower[rows] + rot[rows]).argmax(axis=1)
+        near = j_solved[pos]
+        if theta[-1] == np.pi:  # G_d(-1) is real: best() reads phi = 0 there
+            near[rows == theta.size - 1] = j_bound[rows == theta.size - 1] = j0
+        cand = np.stack([near, near, j_bound], axis=1)
+        want = np.stack([np.maximum(0.5 * v_solved[pos], tiny), np.full(rows.size, tiny), np.full(rows.size, tiny)],
+                        axis=1)
+        shift = np.take_along_axis(rot[rows], cand, axis=1) - want  # lambda_min > want - rot: slack > want there
+        shift[:, 1][want[:, 0] == tiny] = np.nan  # the same pair as the first
+        shift[:, 2][j_bound == near] = np.nan  # the same pair as the second
+        got = patch_certify(checked_tables[rows], shape, phi[cand], shift, symmetry=symmetry, strip=strip)
+        ok = got >= 0
+        r, jj = rows[ok], cand[ok, got[ok]]
+        lower[r, jj] = np.maximum(lower[r, jj], want[ok, got[ok]] - rot[r, jj])
+        raised[r] = True
+
     solve(start_rows)
     fid = np.flatnonzero(theta_all <= t_band * 1.02)[::4]
 
@@ -487,7 +607,11 @@ def design_correction(lags: np.ndarray, tail_compliance=None, weights=(), decays
                 taps = res.x[:n_taps] * scale
                 delta = e @ taps
                 slack, _ = best(known(h) + allowance, delta)
-                solve(np.flatnonzero(slack < 0))  # the bound does not clear these: their own eigenvalues decide
+                # where the circulant bound does not clear a point, a Cholesky factorisation at one phase may;
+                # the rest are solved: their own eigenvalues decide (violated points join the LP with them)
+                certify(np.flatnonzero(slack < 0), allowance, delta)
+                slack, _ = best(known(h) + allowance, delta)
+                solve(np.flatnonzero(slack < 0))
                 slack, jnew = best(known(h) + allowance, delta)
                 if found is None or slack.min() > found[0]:
                     found = (float(slack.min()), taps)
@@ -532,21 +656,24 @@ def design_correction(lags: np.ndarray, tail_compliance=None, weights=(), decays
             del notes[kept_notes:]  # the shorter design stands, with its own notes
     slack, taps = found
     delta_all = _fir(taps.size, theta_all) @ taps
-    # the reported grid minima are over the rows solved exactly (elsewhere the bound cleared the slack)
-    exact = np.flatnonzero(~np.isnan(h[:, 0]))
-    theta, h = theta[exact], h[exact]
-    e = _fir(taps.size, theta)
-    base_p, _ = best(h, np.zeros(theta.size))
-    p, _ = best(h, e @ taps)
+    # the support handed on: the rows solved exactly and those a Cholesky certified (lower bounds there: the
+    # circulant bound at the other phases); the reported grid minima are over the exact rows alone
+    solved = ~np.isnan(h[:, 0])
+    kept = solved | raised
+    theta, support, exact = theta[kept], known(h)[kept], solved[kept]
+    e = _fir(taps.size, theta[exact])
+    base_p, _ = best(support[exact], np.zeros(e.shape[0]))
+    p, _ = best(support[exact], e @ taps)
     i = int(np.argmin(p))
     ratio = np.abs(delta_all) / g00
     in_band = theta_all <= t_band
     corr = Correction(
         taps=taps, sum_abs=float(np.abs(taps).sum()), dc=float(taps.sum()), in_band=float(ratio[in_band].max()),
         above_band=float(ratio[~in_band].max()), at_nyquist=float(delta_all[-1].real), k_target=float(target),
-        slack=slack, base_min_p=float(base_p.min()), min_p=float(p[i]), theta_min=float(theta[i]), lp_rounds=rounds,
-        n_theta=int(sel.size), n_phi=int(n_phi), seconds=time.perf_counter() - t0, band=float(band), notes=notes,
-        theta=theta, phi=phi, support=h, shape=tuple(int(v) for v in shape),
+        slack=slack, base_min_p=float(base_p.min()), min_p=float(p[i]), theta_min=float(theta[exact][i]),
+        lp_rounds=rounds, n_theta=int(sel.size), n_phi=int(n_phi), seconds=time.perf_counter() - t0,
+        band=float(band), notes=notes, theta=theta, phi=phi, support=support, exact=exact,
+        shape=tuple(int(v) for v in shape),
     )
     logger.info("%s", corr.summary())
     for note in notes:

@@ -217,6 +217,12 @@ def _optimise_phase(f, scale: float, n_phi: int = 11, with_phi: bool = False):
 LADDER = 100.0 * 1.15 ** np.arange(165)
 
 
+#: Phases [rad] at which the branch and bound's screen tries to certify k_safe > the smallest found, after those of
+#: the last full solve and the ladder: a Cholesky per block at each (~0.15 ms on 20 x 20) against ~40 ms for the
+#: phase-optimised eigen-solve it saves where a point's best phase is none of the first ones.
+SCREEN_PHASES = tuple(float(v) for v in np.linspace(-np.pi / 2, np.pi / 2, 13)[1:-1])
+
+
 def _ladder(b, c, phi: float, tol: float) -> float:
     """The largest K of :data:`LADDER` with Herm(e^{i phi} G_d) + (cos phi / K - tol) I positive definite (0 if
     none): then no spring set with every k_e <= K puts a root on |z| = 1 here (a lower bound of k_safe)."""
@@ -327,11 +333,12 @@ def patch_margin(kernel: LayerKernel, shape, n_theta: int = 1025, chunk: int = 6
     max_dense : int
         Largest matrix (a block, or the patch matrix without ``symmetry``) factored densely; a patch whose
         largest one is bigger keeps the circulant bound alone.
-    support : (theta, phi, h), optional
+    support : (theta, phi, h[, exact]), optional
         lambda_min Herm(e^{i phi} G_d) of this kernel on this patch already computed (the correction's design,
-        :meth:`tyreroad.construction.Correction.margin_support`: theta (n,), phi (m,), h (n, m) [m/N]). At
-        grid points it covers, p > 0 is certified where max_phi h > tol and otherwise k_safe >=
-        max_phi cos phi / (tol - h) replaces the Cholesky ladder (the same certificate from the eigenvalues);
+        :meth:`tyreroad.construction.Correction.margin_support`: theta (n,), phi (m,), h (n, m) [m/N]; rows
+        with ``exact`` (n,) False hold certified lower bounds of it instead). At grid points it covers, p > 0
+        is certified where max_phi h > tol and otherwise k_safe >= max_phi cos phi / (tol - h) replaces the
+        Cholesky ladder (the same certificate from the eigenvalues, or from their lower bounds);
         it is spot-checked against this kernel's own matrices first and ignored if it does not match (a long
         patch's margin, :func:`uses_strip_bound`: against its strip bound, which the design must have used).
 
@@ -431,7 +438,7 @@ def patch_margin(kernel: LayerKernel, shape, n_theta: int = 1025, chunk: int = 6
         b, c, scale = pending[i]
         tol = MARGIN_TOLERANCE * scale
         if math.isfinite(best) and any(_shifted_pd(b, c, trial, math.cos(trial) / best - tol)
-                                       for trial in dict.fromkeys((best_phi, ladder_phi, 0.0))):
+                                       for trial in dict.fromkeys((best_phi, ladder_phi, 0.0) + SCREEN_PHASES)):
             # certified: k_safe > best here (a strict bound: the Cholesky holds with tol to spare), not k_crit
             k_safe[i] = np.nextafter(best, math.inf)
             screened += 1
@@ -460,11 +467,12 @@ def _support_bound(h_row: tuple, tol: float) -> float:
 
 
 def _support_rows(kernel, shape, theta, todo, support, blocks, checks: int = 3, strip: bool = False) -> dict:
-    """{grid index: (phi, lambda_min)} of the support's rows on the margin's theta grid (matched to 1e-12 rad),
-    after checking ``checks`` of them against eigen-solves of this kernel's own matrices (``strip``: of its strip
+    """{grid index: (phi, lambda_min or a certified lower bound of it)} of the support's rows on the margin's theta
+    grid (matched to 1e-12 rad), after checking ``checks`` of its exact rows against eigen-solves of this kernel's own matrices (``strip``: of its strip
     bound's) ({} if one differs by more than 1e-3 MARGIN_TOLERANCE of the matrix scale: the certificates keep
     MARGIN_TOLERANCE in hand)."""
-    s_theta, s_phi, s_h = (np.asarray(v, dtype=float) for v in support)
+    s_theta, s_phi, s_h = (np.asarray(v, dtype=float) for v in support[:3])
+    s_exact = np.asarray(support[3], dtype=bool) if len(support) > 3 else np.ones(s_theta.size, dtype=bool)
     pos = np.clip(np.searchsorted(s_theta, theta[todo]), 0, s_theta.size - 1)
     prev = np.clip(pos - 1, 0, s_theta.size - 1)
     pos = np.where(np.abs(s_theta[prev] - theta[todo]) < np.abs(s_theta[pos] - theta[todo]), prev, pos)
@@ -472,7 +480,8 @@ def _support_rows(kernel, shape, theta, todo, support, blocks, checks: int = 3, 
     rows = {int(i): int(r) for i, r, h in zip(todo, pos, hit) if h}
     if not rows:
         return {}
-    sample = sorted(rows)[:: max(1, len(rows) // checks)][:checks]
+    exact_rows = sorted(i for i, r in rows.items() if s_exact[r])  # a lower-bound row cannot be checked for equality
+    sample = exact_rows[:: max(1, len(exact_rows) // checks)][:checks]
     tables = kernel.own_frequency_response(theta[sample] * kernel.sample_rate / (2 * np.pi), shape)
     for t, i in zip(tables, sample):
         scale = _entry_scale(t)

@@ -147,7 +147,7 @@ class ReflectionBlocks:
         flat = t.reshape((-1, t.shape[-2] * t.shape[-1]))
         if not lead:  # one table: one sparse product per block
             return [(fold @ flat[0]).reshape(m, m) for fold, m in self._parts]
-        return [np.stack([fold @ row for row in flat]).reshape(lead + (m, m)) for fold, m in self._parts]
+        return [np.ascontiguousarray((fold @ flat.T).T).reshape(lead + (m, m)) for fold, m in self._parts]
 
 
 def patch_blocks(tables: np.ndarray, shape) -> "ReflectionBlocks | None":
