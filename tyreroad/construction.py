@@ -160,8 +160,7 @@ def patch_support(tables: np.ndarray, shape, phi: np.ndarray, symmetry: bool = T
     -------
     numpy.ndarray (n, len(phi)) [m/N]
     """
-    from .influence import offset_matrix
-    from .symmetry import is_reflection_even, patch_blocks, strip_lambda_min, strip_symbol_blocks
+    from .symmetry import is_reflection_even, strip_lambda_min, strip_symbol_blocks
 
     nx, ny = shape
     cx, cy = (tables.shape[1] - 1) // 2, (tables.shape[2] - 1) // 2
@@ -175,17 +174,34 @@ def patch_support(tables: np.ndarray, shape, phi: np.ndarray, symmetry: bool = T
             out[:, j] = strip_lambda_min(parts, f)
         return out
     # the four reflection blocks (tyreroad.symmetry) carry the patch matrix's spectrum exactly, at 1/16 of the work
-    blocks = patch_blocks(crop, shape) if symmetry else None
-    if blocks is not None:  # every table's blocks in one sparse product per block
-        b_all, c_all = blocks.blocks(np.ascontiguousarray(crop.real)), blocks.blocks(np.ascontiguousarray(crop.imag))
-    for k in range(tables.shape[0]):
-        if blocks is not None:
-            bs, cs = [b[k] for b in b_all], [c[k] for c in c_all]
-        else:
-            a = offset_matrix(crop[k])
-            bs, cs = [a.real.copy()], [a.imag.copy()]
-        out[k] = np.min([_lambda_min_on_phases(b, c, phi) for b, c in zip(bs, cs)], axis=0)
+    for k, pairs in _patch_matrices(crop, shape, symmetry):
+        out[k] = np.min([_lambda_min_on_phases(b, c, phi) for b, c in pairs], axis=0)
     return out
+
+
+#: Tables whose reflection blocks are built in one sparse product (a chunk small enough to stay in cache: the
+#: blocks of all ~600 rows of a 20 x 20 design at once are 200 MB, whose first touch cost more than the product).
+_BLOCK_CHUNK = 16
+
+
+def _patch_matrices(crop: np.ndarray, shape, symmetry: bool):
+    """(k, [(Re, Im) of each block]) per cropped table k: the patch matrix's reflection blocks
+    (:mod:`tyreroad.symmetry`) when the tables are even and ``symmetry``, else the patch matrix itself."""
+    from .influence import offset_matrix
+    from .symmetry import patch_blocks
+
+    blocks = patch_blocks(crop, shape) if symmetry else None
+    if blocks is None:
+        for k in range(crop.shape[0]):
+            a = offset_matrix(crop[k])
+            yield k, [(a.real.copy(), a.imag.copy())]
+        return
+    for start in range(0, crop.shape[0], _BLOCK_CHUNK):
+        part = crop[start:start + _BLOCK_CHUNK]
+        b_all = blocks.blocks(np.ascontiguousarray(part.real))
+        c_all = blocks.blocks(np.ascontiguousarray(part.imag))
+        for k in range(part.shape[0]):
+            yield start + k, [(b[k], c[k]) for b, c in zip(b_all, c_all)]
 
 
 def patch_certify(tables: np.ndarray, shape, phi: np.ndarray, shift: np.ndarray, symmetry: bool = True,
@@ -213,30 +229,21 @@ def patch_certify(tables: np.ndarray, shape, phi: np.ndarray, shift: np.ndarray,
     numpy.ndarray (n,) of int
         The index of the first pair that succeeded, -1 if none.
     """
-    from .influence import offset_matrix
-    from .symmetry import is_reflection_even, patch_blocks, strip_symbol_blocks
+    from .symmetry import is_reflection_even, strip_symbol_blocks
 
     nx, ny = shape
     phi, shift = np.atleast_2d(phi), np.atleast_2d(shift)
     cx, cy = (tables.shape[1] - 1) // 2, (tables.shape[2] - 1) // 2
     crop = tables[:, cx - (nx - 1): cx + nx, cy - (ny - 1): cy + ny]
     out = np.full(crop.shape[0], -1)
-    blocks = None
     if strip:
         if not is_reflection_even(crop):
             raise ValueError(f"the strip bound needs offset tables even in dx and dy; these ({shape} patch) are not")
         b_all, c_all = (list(v) for v in zip(*strip_symbol_blocks(crop, shape)))
+        matrices = ((k, [(b[k], c[k]) for b, c in zip(b_all, c_all)]) for k in range(crop.shape[0]))
     else:
-        blocks = patch_blocks(crop, shape) if symmetry else None
-        if blocks is not None:  # every table's blocks in one sparse product per block
-            b_all = blocks.blocks(np.ascontiguousarray(crop.real))
-            c_all = blocks.blocks(np.ascontiguousarray(crop.imag))
-    for k in range(crop.shape[0]):
-        if strip or blocks is not None:
-            pairs = [(b[k], c[k]) for b, c in zip(b_all, c_all)]
-        else:
-            a = offset_matrix(crop[k])
-            pairs = [(a.real, a.imag)]
+        matrices = _patch_matrices(crop, shape, symmetry)
+    for k, pairs in matrices:
         for t in range(phi.shape[1]):
             if not math.isfinite(shift[k, t]):
                 continue
