@@ -583,6 +583,8 @@ def design_correction(lags: np.ndarray, tail_compliance=None, weights=(), decays
     radius = fidelity_budget * g00[fid] * math.cos(math.pi / 8) / scale
     rounds, notes = 0, []
 
+    carried = []  # a missed target's LP rows and the phases of its last solution there
+
     def attempt(targets, n_taps):
         """The targets in turn with ``n_taps`` taps, on the eigenvalues solved so far: ((slack, taps), target)."""
         nonlocal rounds
@@ -600,6 +602,12 @@ def design_correction(lags: np.ndarray, tail_compliance=None, weights=(), decays
             allowance = (np.cos(phi) / target if math.isfinite(target) else np.zeros(phi.size))[None, :]
             _, jsel = best(known(h) + allowance, np.zeros(theta.size))
             rows_on = start_rows.copy()
+            if carried:
+                # a target after a missed one (a softer one, or the same with more taps) starts from the points
+                # the missed one had to add and the phases its last solution chose there, instead of finding
+                # them again round by round
+                rows_on = np.union1d(rows_on, carried[0])
+                jsel[carried[0]] = carried[1][carried[0]]
             found, last_t = None, None
             for _ in range(max_rounds):
                 stab = (np.exp(1j * phi[jsel[rows_on]])[:, None] * e[rows_on]).real
@@ -638,6 +646,7 @@ def design_correction(lags: np.ndarray, tail_compliance=None, weights=(), decays
                     break
                 last_t = t_opt
                 rows_on = np.union1d(rows_on, violated)
+                carried[:] = [rows_on, jnew]
                 jsel = jnew
             if found is None:
                 solve(np.arange(theta.size))
