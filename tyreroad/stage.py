@@ -404,14 +404,22 @@ class StageTailHistory(StageTailRecursion):
 class StageDenseSubstrate:
     """The stage system's instantaneous operator W_0 (3 M x 3 M, stage-major) and a direct Newton solve.
 
-    Corrections solve J delta = -r, J = I + W_0 diag(k), on the loaded block (LU with partial pivoting; W_0
-    couples the stages and is not symmetric). The factors are kept while the loaded set stays the same. With
-    the same stiffnesses (linear springs in a hold) they solve J exactly; with others (nonlinear springs: every
-    Newton iteration) they precondition iterative refinement, delta <- delta + M^-1 (-r - J delta) with M the
-    factored Jacobian, to ||J delta + r||_2 <= :data:`REFINE_TOLERANCE` ||r||_2: near-exact, as the direct
-    solve, at a few triangular solves and products instead of an O((3 M)^3) factorisation. The factors are
-    renewed when the refinement contracts by less than :data:`REFINE_CONTRACTION` per sweep or needs more than
-    :data:`REFINE_SWEEPS` (a spring whose stiffness changed a lot, e.g. just loaded).
+    Corrections solve J(k) delta = -r, J(k) = I + W_0 diag(k), over the whole patch (k = 0 off the loaded set:
+    there the row gives delta = -r - (W_0 diag(k) delta), as the march needs). J is block triangular: only its
+    loaded block is factored (LU with partial pivoting; W_0 couples the stages and is not symmetric). One
+    factorisation serves many corrections:
+
+    * springs that are loaded or unloaded, or change a lot, since the factorisation (a growing contact: new
+      elements at every step of an indentation) are a low-rank change W_0[:, C] diag(dk) of J; it is solved
+      exactly by the Woodbury identity, M^-1 b = y - Z S^-1 y_C with y = J_0^-1 b, Z = J_0^-1 W_0[:, C] (one
+      triangular solve per new column, kept) and S = diag(1 / dk) + Z_C, up to :data:`MAX_UPDATES` columns;
+    * stiffnesses that change a little (nonlinear springs: every Newton iteration) are solved by iterative
+      refinement, delta <- delta + M^-1 (-r - J delta), to ||J delta + r||_2 <= :data:`REFINE_TOLERANCE`
+      ||r||_2: near-exact, as the direct solve, at a few triangular solves and products instead of an
+      O((3 M)^3) factorisation.
+
+    The factors are renewed when the updates would exceed :data:`MAX_UPDATES` columns, or the refinement
+    contracts by less than :data:`REFINE_CONTRACTION` per sweep or needs more than :data:`REFINE_SWEEPS`.
     """
 
     #: Relative linear residual the refinement stops at (the direct solve's is ~1e-15).
@@ -420,6 +428,13 @@ class StageDenseSubstrate:
     REFINE_CONTRACTION = 0.2
     #: Most refinement sweeps before the factors are renewed.
     REFINE_SWEEPS = 8
+    #: Most Woodbury columns (stage unknowns whose spring was loaded, unloaded or changed by more than
+    #: :data:`UPDATE_CHANGE` since the factorisation) before the factors are renewed: 48 columns cost 48 triangular
+    #: solves, about a third of a factorisation of the 20 x 20 patch's 1200 unknowns.
+    MAX_UPDATES = 48
+    #: A stiffness that changed by more than this fraction of the larger of its old and new values joins the
+    #: Woodbury columns instead of being left to the refinement.
+    UPDATE_CHANGE = 0.5
 
     def __init__(self, matrix: np.ndarray, apply=None):
         self.g0 = np.ascontiguousarray(matrix, dtype=float)
@@ -429,12 +444,16 @@ class StageDenseSubstrate:
         # springs crossing zeta = 0 keep a unit diagonal of dR/dx (the stages' self compliances differ by
         # less than 2: their mean)
         self.self_compliance = float(np.mean(np.diag(self.g0)))
-        self._active = None  # the loaded set the factors belong to (bytes), its W_0 block and stiffnesses
-        self._block = None
-        self._ka = None
-        self._lu = None
+        self._lu = None  # factors of J(k_base)'s loaded block
+        self._active = None
+        self._k_base = None
+        self._cols = np.zeros(0, dtype=int)  # the Woodbury columns C, their dk, Z = J0^-1 W_0[:, C], LU of S
+        self._dk = np.zeros(0)
+        self._z = np.zeros((self.g0.shape[0], 0))
+        self._s_lu = None
         self.factorisations = 0
         self.refinements = 0  # corrections solved by refinement on older factors
+        self.updates = 0  # Woodbury columns added
 
     @classmethod
     def from_table(cls, table0: np.ndarray, shape) -> "StageDenseSubstrate":
@@ -454,49 +473,98 @@ class StageDenseSubstrate:
         """Nothing to reset."""
 
     def correction(self, stiffness: np.ndarray, residual: np.ndarray, polish: bool) -> tuple[np.ndarray, int]:
-        active = np.flatnonzero(stiffness)
-        if active.size == 0:
-            return -residual, 0
-        ka = stiffness[active]
-        rhs = -residual[active]
-        key = active.tobytes()
-        delta_a = None
-        if key == self._active and np.array_equal(ka, self._ka):
-            delta_a = scipy.linalg.lu_solve(self._lu, rhs, check_finite=False)
-        elif key == self._active:
-            delta_a = self._refine(ka, rhs)
-        if delta_a is None:
-            if key != self._active:
-                self._block = self.g0[np.ix_(active, active)]
-                self._active = key
-            jac = self._block * ka[None, :]
-            jac[np.diag_indices_from(jac)] += 1.0
-            self._lu = scipy.linalg.lu_factor(jac, overwrite_a=True, check_finite=False)
-            self._ka = ka.copy()
-            self.factorisations += 1
-            delta_a = scipy.linalg.lu_solve(self._lu, rhs, check_finite=False)
-        step = np.zeros(residual.size)
-        step[active] = ka * delta_a
-        delta = -residual - self._apply(step)
-        delta[active] = delta_a
-        return delta, 0
+        k = np.asarray(stiffness, dtype=float)
+        rhs = -np.asarray(residual, dtype=float)
+        if not k.any():
+            return rhs, 0
+        if self._lu is None or not self._update(k):
+            return self._refactor(k, rhs), 0
+        k_model = self._k_base.copy()
+        k_model[self._cols] += self._dk
+        x = self._solve(rhs)
+        if np.array_equal(k_model, k) and not self._cols.size:
+            return x, 0  # the factors' own stiffnesses: the direct solve
+        x = self._refine(k, rhs, x)
+        return (x if x is not None else self._refactor(k, rhs)), 0
 
-    def _refine(self, ka: np.ndarray, rhs: np.ndarray) -> np.ndarray | None:
-        """J x = rhs (J with stiffnesses ``ka``) by refinement on the factors of older stiffnesses; None if it
-        does not converge fast enough (the caller refactors)."""
+    def _refactor(self, k: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+        # J(k) is block triangular (its unloaded columns are those of I): only the loaded block is factored
+        active = np.flatnonzero(k)
+        jac = self.g0[np.ix_(active, active)] * k[active][None, :]
+        jac[np.diag_indices_from(jac)] += 1.0
+        self._lu = scipy.linalg.lu_factor(jac, overwrite_a=True, check_finite=False)
+        self._active = active
+        self._k_base = k.copy()
+        self._cols, self._dk = np.zeros(0, dtype=int), np.zeros(0)
+        self._z, self._s_lu = np.zeros((k.size, 0)), None
+        self.factorisations += 1
+        return self._base_solve(rhs)
+
+    def _base_solve(self, b: np.ndarray) -> np.ndarray:
+        """J(k_base)^-1 b for a vector, or the columns of an (n, c) matrix: the loaded block's LU, then the
+        unloaded rows x_I = b_I - (W_0 diag(k) x)_I."""
+        active, ka = self._active, self._k_base[self._active]
+        xa = scipy.linalg.lu_solve(self._lu, b[active], check_finite=False)
+        if b.ndim == 1:
+            step = np.zeros(b.size)
+            step[active] = ka * xa
+            out = b - self._apply(step)
+        else:
+            out = b - self.g0[:, active] @ (ka[:, None] * xa)
+        out[active] = xa
+        return out
+
+    def _update(self, k: np.ndarray) -> bool:
+        """Bring the Woodbury columns up to ``k``: every unknown whose spring was loaded or unloaded since the
+        factorisation, or changed by more than :data:`UPDATE_CHANGE`, is a column (dk = k - k_base); False if
+        they would exceed :data:`MAX_UPDATES` (the caller refactors)."""
+        base = self._k_base
+        big = np.abs(k - base) > self.UPDATE_CHANGE * np.maximum(np.abs(k), np.abs(base))
+        cols = np.union1d(self._cols, np.flatnonzero(big))
+        cols = cols[k[cols] != base[cols]]
+        if cols.size > self.MAX_UPDATES:
+            return False
+        if cols.size:
+            have = np.isin(cols, self._cols)
+            z = np.empty((k.size, cols.size))
+            if have.any():
+                z[:, have] = self._z[:, np.searchsorted(self._cols, cols[have])]
+            new = cols[~have]
+            if new.size:
+                z[:, ~have] = self._base_solve(self.g0[:, new])
+                self.updates += int(new.size)
+            dk = k[cols] - base[cols]
+            s = z[cols, :].copy()
+            s[np.diag_indices_from(s)] += 1.0 / dk
+            self._s_lu = scipy.linalg.lu_factor(s, check_finite=False)
+            self._z, self._dk = z, dk
+        else:
+            self._z, self._dk, self._s_lu = np.zeros((k.size, 0)), np.zeros(0), None
+        self._cols = cols
+        return True
+
+    def _solve(self, b: np.ndarray) -> np.ndarray:
+        """M^-1 b for M = J(k_base) + W_0[:, C] diag(dk) E_C^T (Woodbury on the kept factors)."""
+        y = self._base_solve(b)
+        if self._cols.size:
+            y -= self._z @ scipy.linalg.lu_solve(self._s_lu, y[self._cols], check_finite=False)
+        return y
+
+    def _refine(self, k: np.ndarray, rhs: np.ndarray, x: np.ndarray) -> np.ndarray | None:
+        """J(k) x = rhs by refinement from ``x`` (preconditioned with :meth:`_solve`); None if it does not converge
+        fast enough (the caller refactors)."""
         previous = float(np.linalg.norm(rhs))
         target = self.REFINE_TOLERANCE * previous
-        x = scipy.linalg.lu_solve(self._lu, rhs, check_finite=False)
-        for _ in range(self.REFINE_SWEEPS):
-            r = rhs - x - self._block @ (ka * x)
+        for sweep in range(self.REFINE_SWEEPS + 1):
+            r = rhs - x - self._apply(k * x)
             norm = float(np.linalg.norm(r))
             if norm <= target:
-                self.refinements += 1
+                self.refinements += int(sweep > 0)
                 return x
-            if norm > self.REFINE_CONTRACTION * previous:
+            if norm > self.REFINE_CONTRACTION * previous or sweep == self.REFINE_SWEEPS:
                 return None
             previous = norm
-            x += scipy.linalg.lu_solve(self._lu, r, check_finite=False)
+            x = x + self._solve(r)
         return None
 
     def tangent(self, stiffness):
