@@ -35,7 +35,10 @@ Cost: the design needs lambda_min of the M x M patch matrices on its theta x phi
 the exact reflection (and, square patch, x <-> y) blocks of the patch matrix (:mod:`tyreroad.symmetry`;
 20 x 20: blocks 55, 45, 100, 55, 45 instead of 400), and the greens stage checks every theta of the margin's
 grid above 5 kHz (``n_dense``: ~1064 theta x 8 phi), so that a target met on the grid is met by the margin,
-which then reuses these eigenvalues (:meth:`Correction.margin_support`). The correction is the same identity
+which then reuses these eigenvalues (:meth:`Correction.margin_support`). Only the LP's own rows need the
+eigenvalues themselves (tread: 622 of 1064 theta); elsewhere the circulant bound, or failing it a Cholesky
+factorisation at one phase (:func:`patch_certify`), proves the slack, and the proof is handed to the margin as
+a lower bound. The correction is the same identity
 shift on every patch, so taps designed on a 20 x 20 patch may be applied to a larger one (measured tread,
 k(fs/2) of the 20 x 20 taps: 1.24e5 N/m on 20 x 20, 1.06e5 on 40 x 40; today's 2.37e4 / 2.29e4).
 
