@@ -449,3 +449,21 @@ def test_which_patches_get_the_strip_bound():
 
     assert uses_strip_bound((150, 20)) and uses_strip_bound((20, 150))
     assert not any(uses_strip_bound(s) for s in ((150, 10), (20, 20), (40, 40), (150, 200)))
+
+
+def test_a_missed_target_hands_its_rows_to_the_next_and_the_met_one_holds(tread):
+    """Targets in turn with a tight fidelity budget (1e-3): every spring (inf) is missed with 64 taps, 1e6 N/m is
+    met starting from the missed target's rows, then the longer FIR (128 taps) tried once more at inf, from
+    the rows both found, meets it; the margin of the corrected kernel, computed without the design's
+    eigenvalues, certifies at least the softer target (and the design's own grid p > 0)."""
+    from tyreroad import construction
+
+    base = greens_dataset(tread, SHAPE, 1e-3, FS, 256, 4096, construction="passive")
+    ds, corr = construction.correct_greens(base, shape=SHAPE, n_theta=64, n_phi=8, k_target=(math.inf, 1e6),
+                                           fidelity_budget=1e-3, n_dense=1024, max_rounds=30, n_taps=64,
+                                           longer_taps=128)
+    assert any("k_target inf N/m not met" in note for note in corr.notes)
+    assert corr.k_target == math.inf and corr.taps.size == 128 and corr.slack >= 0 and corr.min_p > 0
+    assert corr.in_band <= 1e-3 * 1.01
+    margin = patch_margin(LayerKernel.from_greens(ds, "dynamic"), SHAPE)
+    assert margin.k_crit >= 1e6
