@@ -414,16 +414,20 @@ class StageDenseSubstrate:
       exactly by the Woodbury identity, M^-1 b = y - Z S^-1 y_C with y = J_0^-1 b, Z = J_0^-1 W_0[:, C] (one
       triangular solve per new column, kept) and S = diag(1 / dk) + Z_C, up to :data:`MAX_UPDATES` columns;
     * stiffnesses that change a little (nonlinear springs: every Newton iteration) are solved by iterative
-      refinement, delta <- delta + M^-1 (-r - J delta), to ||J delta + r||_2 <= :data:`REFINE_TOLERANCE`
-      ||r||_2: near-exact, as the direct solve, at a few triangular solves and products instead of an
-      O((3 M)^3) factorisation.
+      refinement, delta <- delta + M^-1 (-r - J delta), to ||J delta + r||_2 <= :data:`REFINE_FORCING` ||r||_2
+      (inexact Newton) and in the polishing correction to :data:`REFINE_TOLERANCE` ||r||_2 (near-exact, as
+      the direct solve), at a few triangular solves and products instead of an O((3 M)^3) factorisation.
 
     The factors are renewed when the updates would exceed :data:`MAX_UPDATES` columns, or the refinement
     contracts by less than :data:`REFINE_CONTRACTION` per sweep or needs more than :data:`REFINE_SWEEPS`.
     """
 
-    #: Relative linear residual the refinement stops at (the direct solve's is ~1e-15).
+    #: Relative linear residual the refinement stops at in the Newton driver's polishing correction (the direct
+    #: solve's is ~1e-15), so that a converged step is the same to round-off whatever its path.
     REFINE_TOLERANCE = 1e-12
+    #: ... and in the corrections before it (inexact Newton, as the FFT path's ``solver.krylov_forcing``): a
+    #: correction needs no more digits than the next Newton residual keeps.
+    REFINE_FORCING = 1e-6
     #: Largest residual ratio per sweep accepted (above it the factors are renewed at once).
     REFINE_CONTRACTION = 0.2
     #: Most refinement sweeps before the factors are renewed.
@@ -484,7 +488,7 @@ class StageDenseSubstrate:
         x = self._solve(rhs)
         if np.array_equal(k_model, k) and not self._cols.size:
             return x, 0  # the factors' own stiffnesses: the direct solve
-        x = self._refine(k, rhs, x)
+        x = self._refine(k, rhs, x, self.REFINE_TOLERANCE if polish else self.REFINE_FORCING)
         return (x if x is not None else self._refactor(k, rhs)), 0
 
     def _refactor(self, k: np.ndarray, rhs: np.ndarray) -> np.ndarray:
@@ -550,11 +554,11 @@ class StageDenseSubstrate:
             y -= self._z @ scipy.linalg.lu_solve(self._s_lu, y[self._cols], check_finite=False)
         return y
 
-    def _refine(self, k: np.ndarray, rhs: np.ndarray, x: np.ndarray) -> np.ndarray | None:
-        """J(k) x = rhs by refinement from ``x`` (preconditioned with :meth:`_solve`); None if it does not converge
-        fast enough (the caller refactors)."""
+    def _refine(self, k: np.ndarray, rhs: np.ndarray, x: np.ndarray, tolerance: float) -> np.ndarray | None:
+        """J(k) x = rhs to ||J x - rhs||_2 <= tolerance ||rhs||_2 by refinement from ``x`` (preconditioned with
+        :meth:`_solve`); None if it does not converge fast enough (the caller refactors)."""
         previous = float(np.linalg.norm(rhs))
-        target = self.REFINE_TOLERANCE * previous
+        target = tolerance * previous
         for sweep in range(self.REFINE_SWEEPS + 1):
             r = rhs - x - self._apply(k * x)
             norm = float(np.linalg.norm(r))
