@@ -163,15 +163,11 @@ def patch_support(tables: np.ndarray, shape, phi: np.ndarray, symmetry: bool = T
     -------
     numpy.ndarray (n, len(phi)) [m/N]
     """
-    from .symmetry import is_reflection_even, strip_lambda_min, strip_symbol_blocks
+    from .symmetry import strip_lambda_min, strip_symbol_blocks
 
-    nx, ny = shape
-    cx, cy = (tables.shape[1] - 1) // 2, (tables.shape[2] - 1) // 2
     out = np.empty((tables.shape[0], len(phi)))
-    crop = tables[:, cx - (nx - 1): cx + nx, cy - (ny - 1): cy + ny]
+    crop = _crop(tables, shape, strip)
     if strip:
-        if not is_reflection_even(crop):
-            raise ValueError(f"the strip bound needs offset tables even in dx and dy; these ({shape} patch) are not")
         parts = strip_symbol_blocks(crop, shape)
         for j, f in enumerate(phi):
             out[:, j] = strip_lambda_min(parts, f)
@@ -180,6 +176,19 @@ def patch_support(tables: np.ndarray, shape, phi: np.ndarray, symmetry: bool = T
     for k, pairs in _patch_matrices(crop, shape, symmetry):
         out[k] = np.min([_lambda_min_on_phases(b, c, phi) for b, c in pairs], axis=0)
     return out
+
+
+def _crop(tables: np.ndarray, shape, strip: bool) -> np.ndarray:
+    """The (n, 2 nx - 1, 2 ny - 1) centre of a stack of offset tables; for the strip bound, checked even in dx
+    and dy (its folds assume it)."""
+    from .symmetry import is_reflection_even
+
+    nx, ny = shape
+    cx, cy = (tables.shape[1] - 1) // 2, (tables.shape[2] - 1) // 2
+    crop = tables[:, cx - (nx - 1): cx + nx, cy - (ny - 1): cy + ny]
+    if strip and not is_reflection_even(crop):
+        raise ValueError(f"the strip bound needs offset tables even in dx and dy; these ({shape} patch) are not")
+    return crop
 
 
 #: Tables whose reflection blocks are built in one sparse product (a chunk small enough to stay in cache: the
@@ -232,43 +241,39 @@ def patch_certify(tables: np.ndarray, shape, phi: np.ndarray, shift: np.ndarray,
     numpy.ndarray (n,) of int
         The index of the first pair that succeeded, -1 if none.
     """
-    from .symmetry import is_reflection_even, strip_symbol_blocks
+    from .margin import _shifted_pd
+    from .symmetry import strip_symbol_blocks
 
-    nx, ny = shape
     phi, shift = np.atleast_2d(phi), np.atleast_2d(shift)
-    cx, cy = (tables.shape[1] - 1) // 2, (tables.shape[2] - 1) // 2
-    crop = tables[:, cx - (nx - 1): cx + nx, cy - (ny - 1): cy + ny]
+    crop = _crop(tables, shape, strip)
     out = np.full(crop.shape[0], -1)
     if strip:
-        if not is_reflection_even(crop):
-            raise ValueError(f"the strip bound needs offset tables even in dx and dy; these ({shape} patch) are not")
-        b_all, c_all = (list(v) for v in zip(*strip_symbol_blocks(crop, shape)))
-        matrices = ((k, [(b[k], c[k]) for b, c in zip(b_all, c_all)]) for k in range(crop.shape[0]))
+        parts = strip_symbol_blocks(crop, shape)
+        matrices = ((k, [(b[k], c[k]) for b, c in parts]) for k in range(crop.shape[0]))
+        positive = _stacks_positive_definite  # the strip bound's blocks come as a stack per wave number
     else:
         matrices = _patch_matrices(crop, shape, symmetry)
+        positive = _shifted_pd  # the margin's own certificate, block by block
     for k, pairs in matrices:
+        bs, cs = [b for b, _ in pairs], [c for _, c in pairs]
         for t in range(phi.shape[1]):
-            if not math.isfinite(shift[k, t]):
-                continue
-            cp, sp = math.cos(phi[k, t]), math.sin(phi[k, t])
-            if all(_positive_definite(cp * b - sp * c, shift[k, t]) for b, c in pairs):
+            if math.isfinite(shift[k, t]) and positive(bs, cs, float(phi[k, t]), float(shift[k, t])):
                 out[k] = t
                 break
     return out
 
 
-def _positive_definite(m: np.ndarray, shift: float) -> bool:
-    """m + shift I positive definite, by Cholesky (a stack of matrices on the last two axes: every one); m is
-    overwritten."""
-    n = m.shape[-1]
-    if m.ndim == 2:
-        m.flat[:: n + 1] += shift
-        return scipy.linalg.lapack.dpotrf(m, lower=1, clean=0, overwrite_a=1)[1] == 0
-    m += shift * np.eye(n)
-    try:
-        np.linalg.cholesky(m)
-    except np.linalg.LinAlgError:
-        return False
+def _stacks_positive_definite(bs, cs, phi: float, shift: float) -> bool:
+    """Herm(e^{i phi} G) + shift I positive definite for every matrix of the stacks (..., m, m) in bs, cs (Re,
+    Im), by one batched Cholesky per stack."""
+    cp, sp = math.cos(phi), math.sin(phi)
+    for b, c in zip(bs, cs):
+        m = cp * b - sp * c
+        m += shift * np.eye(m.shape[-1])
+        try:
+            np.linalg.cholesky(m)
+        except np.linalg.LinAlgError:
+            return False
     return True
 
 
@@ -548,18 +553,15 @@ def design_correction(lags: np.ndarray, tail_compliance=None, weights=(), decays
         if not rows.size or not solved.size:
             return
         rot = (np.exp(1j * phi)[None, :] * delta[:, None]).real + allowance
-        v = h[solved] + rot[solved]
-        j_solved = v.argmax(axis=1)
-        if theta[-1] == np.pi and solved[-1] == theta.size - 1:
-            j_solved[-1] = j0
-        v_solved = v[np.arange(solved.size), j_solved]
+        v_all, j_all = best(known(h) + allowance, delta)  # at the solved rows, their own best phase and slack
+        v_solved, j_solved = v_all[solved], j_all[solved]
         pos = np.clip(np.searchsorted(solved, rows), 1, solved.size) - 1
         after = np.minimum(pos + 1, solved.size - 1)
         pos = np.where(np.abs(solved[after] - rows) < np.abs(solved[pos] - rows), after, pos)
-        j_bound = (lower[rows] + rot[rows]).argmax(axis=1)
+        j_bound = j_all[rows]  # at the unsolved rows, the bound's best phase
         near = j_solved[pos]
         if theta[-1] == np.pi:  # G_d(-1) is real: best() reads phi = 0 there
-            near[rows == theta.size - 1] = j_bound[rows == theta.size - 1] = j0
+            near[rows == theta.size - 1] = j0
         cand = np.stack([near, near, j_bound], axis=1)
         want = np.stack([np.maximum(0.5 * v_solved[pos], tiny), np.full(rows.size, tiny), np.full(rows.size, tiny)],
                         axis=1)

@@ -468,8 +468,8 @@ def _support_bound(h_row: tuple, tol: float) -> float:
 
 def _support_rows(kernel, shape, theta, todo, support, blocks, checks: int = 3, strip: bool = False) -> dict:
     """{grid index: (phi, lambda_min or a certified lower bound of it)} of the support's rows on the margin's theta
-    grid (matched to 1e-12 rad), after checking ``checks`` of its exact rows against eigen-solves of this kernel's own matrices (``strip``: of its strip
-    bound's) ({} if one differs by more than 1e-3 MARGIN_TOLERANCE of the matrix scale: the certificates keep
+    grid (matched to 1e-12 rad), after checking ``checks`` of its exact rows against eigen-solves of this kernel's
+    own matrices (``strip``: of its strip bound's) ({} if one differs by more than 1e-3 MARGIN_TOLERANCE of the matrix scale: the certificates keep
     MARGIN_TOLERANCE in hand)."""
     s_theta, s_phi, s_h = (np.asarray(v, dtype=float) for v in support[:3])
     s_exact = np.asarray(support[3], dtype=bool) if len(support) > 3 else np.ones(s_theta.size, dtype=bool)

@@ -277,8 +277,9 @@ def _stage_index(index: np.ndarray, size: int) -> np.ndarray:
 
 class PatternStageSubstrate:
     """W_0 of the patch, block by block: each block's loaded stage set solved directly
-    (:class:`tyreroad.stage.StageDenseSubstrate`, LU kept while its loaded set stays; changed stiffnesses refine on it); grooved
-    elements (never loaded) keep delta = -r."""
+    (:class:`tyreroad.stage.StageDenseSubstrate`: one LU kept across corrections, loaded and unloaded springs
+    as Woodbury columns on it, changed stiffnesses refined on it); grooved elements (never loaded) keep
+    delta = -r."""
 
     def __init__(self, layout: PatchLayout, w0_block: np.ndarray):
         m = math.prod(layout.shape)

@@ -27,9 +27,9 @@ output is the last stage (c_3 = 1, t_n). The stage system is presented to the on
   rates);
 * the **springs** are the patch's springs tiled three times (:func:`stage_springs`);
 * the **substrate** (:class:`StageDenseSubstrate`) holds the 3 M x 3 M block matrix W_0 and solves the
-  loaded block directly (LU, kept while the loaded set does not change: a hold on linear springs factorises
-  once, and nonlinear springs, whose stiffnesses change at every Newton iteration, refine on the kept factors
-  to 1e-12 instead of refactorising);
+  loaded block directly (LU, kept across corrections: springs loaded or unloaded since the factorisation are
+  exact Woodbury columns on it, and nonlinear springs, whose stiffnesses change at every Newton iteration,
+  refine on it instead of refactorising; a hold on linear springs factorises once);
 * the **history** is sum_{l = 1}^{L-1} W_l F_{n-l} over all stages (:class:`StageFFTHistory`, 2-D FFT in
   space, 9 block entries per lag) plus the creep beyond the kept lags (:class:`StageTailHistory`);
 * the **recorder** (:class:`StageRecorder`) keeps the last stage of every step, so a run's result has the
@@ -483,10 +483,8 @@ class StageDenseSubstrate:
             return rhs, 0
         if self._lu is None or not self._update(k):
             return self._refactor(k, rhs), 0
-        k_model = self._k_base.copy()
-        k_model[self._cols] += self._dk
         x = self._solve(rhs)
-        if np.array_equal(k_model, k) and not self._cols.size:
+        if not self._cols.size and np.array_equal(self._k_base, k):
             return x, 0  # the factors' own stiffnesses: the direct solve
         x = self._refine(k, rhs, x, self.REFINE_TOLERANCE if polish else self.REFINE_FORCING)
         return (x if x is not None else self._refactor(k, rhs)), 0
