@@ -479,6 +479,42 @@ def test_rolling_report_judges_alternation_against_the_mean_force_and_flat_road_
         _rolling_stability_lines(past, THRESHOLDS))
 
 
+def test_rolling_report_names_the_cause_of_each_failing_pass():
+    """A failing pass stays out of the range whatever its cause, but the report says which it is: a steady
+    element ripple (small top band, no growth: the flat road at 10 m/s), a march instability (top band past
+    the limit, or growing), chatter, or holes."""
+    import xarray as xr
+
+    from tyreroad.report.claims import THRESHOLDS
+    from tyreroad.report.sections import ReportContext, _rolling_failure_cause, rolling_section
+
+    n = 5
+    study = xr.Dataset({
+        "material": ("case", ["tread"] * n), "mode": ("case", ["dynamic"] * n),
+        "speed": ("case", [10.0, 5.0, 6.0, 7.0, 8.0]), "chatter": ("case", [0.0, 0.0, 0.0, 0.5, 0.0]),
+        "fs2_alternation": ("case", [1.92e-4, 3.7e-2, 2e-4, 1e-6, 1e-6]),
+        "fs2_band_amplitude": ("case", [3.4e-6, 3.6e-2, 2e-6, 1e-7, 1e-7]),
+        "alternation_growth": ("case", [1.0, 1.0, 1.5, 1.0, 1.0]),
+        "contact_holes": ("case", [0, 0, 0, 0, 3]), "flat_road": ("case", [1, 1, 1, 0, 1]),
+        "element_rate": ("case", [1e4, 5e3, 6e3, 7e3, 8e3]), "sample_rate": ("case", [51200.0] * n),
+    })
+    causes = [_rolling_failure_cause(study, i, THRESHOLDS) for i in range(n)]
+    assert causes[0].startswith("fs/2 alternation 1.92e-04 (limit 1e-04), but its top band is 3.4e-06 and it does "
+                                "not grow (1.00)") and "entering the contact at v / element size = 10 kHz" in causes[0]
+    assert causes[0].endswith("not a march instability")
+    assert causes[1].endswith("top band 0.036, growth 1.00: a march instability")
+    assert causes[2].endswith("growth 1.50: a march instability")  # small top band, but growing
+    assert causes[3].startswith("chatter 0.5 of the fluctuation (limit 0.05)")
+    assert causes[4] == "3 force-free elements inside a row of the flat road's contact"
+    text = "\n".join(rolling_section(ReportContext(rolling=study.assign(
+        d0=("case", [1e-4] * n), steady_force=("case", [500.0] * n), rolling_loss_force=("case", [1.0] * n),
+        rolling_loss_coefficient=("case", [2e-3] * n), steady_loss_force=("case", [1.0] * n),
+        centre_offset=("case", [1e-3] * n), fluctuation_rms=("case", [1.0] * n),
+        strongest_band=("case", [1e3] * n), band_level=(("case", "band"), np.zeros((n, 2)))).assign_attrs(
+        radius=0.3, surface="flat", strip_length=0.15))))
+    assert "- tread at 10 m/s: fs/2 alternation 1.92e-04" in text and "- tread at 7 m/s: chatter 0.5" in text
+
+
 def test_top_band_amplitude_tells_an_instability_from_the_element_ripple():
     """A stationary ripple at the element rate (10 kHz at 10 m/s over 1 mm elements) has no top-band
     component and does not grow; a growing fs/2 alternation has both."""

@@ -899,11 +899,12 @@ def rolling_section(ctx: ReportContext) -> list[str]:
     lines += _rolling_stability_lines(study, t)
     if bad:
         names = ", ".join(f"{study['material'].values[i]} at {float(study['speed'][i]):g} m/s" for i in bad)
-        lines += ["", f"**Not trustworthy: {names}.** The force alternates from step to step (fs/2 alternation past "
-                  f"{t['rolling_alternation_max']:.0e} of the steady force, or chatter past {chatter_max:g} of the "
-                  "fluctuation) or a flat road's contact has a hole: the time march with the discrete kernel is "
-                  "unstable for this material and speed with these springs (a numerical limit of the solver, not "
-                  "physics); these cases are left out of the range below."]
+        lines += ["", f"**Not trustworthy: {names}.** Each fails a stability limit (fs/2 alternation past "
+                  f"{t['rolling_alternation_max']:.0e} of the steady force, chatter past {chatter_max:g} of the "
+                  "fluctuation, or a hole in a flat road's contact) and is left out of the range below, whatever "
+                  "the cause; what the record says about the cause:", ""]
+        lines += [f"- {study['material'].values[i]} at {float(study['speed'][i]):g} m/s: {_rolling_failure_cause(study, i, t)}"
+                  for i in bad]
     keep = np.ones(study.sizes["case"], bool)
     keep[bad] = False
     dyn = study.isel(case=np.flatnonzero(keep & (study["mode"].values.astype(str) == "dynamic")))
@@ -913,7 +914,7 @@ def rolling_section(ctx: ReportContext) -> list[str]:
         strongest = sorted({float(v) for v in dyn["strongest_band"].values if np.isfinite(v)})
         lines += ["", f"Strongest 1/3-octave bands of the dynamic force: {', '.join(f'{v:.0f}' for v in strongest)} Hz "
                   f"(v / f = {', '.join(f'{1e3 * float(sp) / float(fb):.0f}' for sp, fb in zip(dyn['speed'].values, dyn['strongest_band'].values))} mm: "
-                  "a band that moves with the speed at a fixed wavelength is excited by the road texture)."]
+                  "a band that moves with the speed at a fixed wavelength is excited by the road texture, or, at the element size, by the elements entering the contact)."]
         lines += ["", f"Dynamic rolling-loss coefficients span {np.nanmin(coef):.2e} to {np.nanmax(coef):.2e}; "
                   f"tread hysteresis is expected of the order of 1e-3 to 1e-2: "
                   f"{'in that range' if sensible else 'OUTSIDE that range (check the material and d0)'}."]
@@ -943,6 +944,41 @@ def _untrustworthy_rolling_cases(study, t) -> list[int]:
                 or (flat and value("contact_holes", i) > 0)):
             bad.append(i)
     return bad
+
+
+#: Growth of the fourth difference over the steady part (last third / first third) above which a failing pass
+#: reads as a growing mode rather than a steady ripple.
+_GROWING = 1.1
+
+
+def _rolling_failure_cause(study, i, t) -> str:
+    """Why case ``i`` of :func:`_untrustworthy_rolling_cases` fails, from its stability record: a march
+    instability (force in the top band 0.9-1 x fs/2 past the limit, or a growing fourth difference, or chatter),
+    or a steady ripple at the road's input (elements entering the contact at v / element size) that the fourth
+    difference also reads; holes are named."""
+    def value(name, default=float("nan")):
+        return float(study[name].values[i]) if name in study else default
+
+    limit = t["rolling_alternation_max"]
+    alternation, band, growth = value("fs2_alternation"), value("fs2_band_amplitude"), value("alternation_growth")
+    parts = []
+    flat = bool(value("flat_road", 0.0))
+    if not flat and value("chatter", 0.0) > t["rolling_chatter_max"]:
+        parts.append(f"chatter {value('chatter'):.3g} of the fluctuation (limit {t['rolling_chatter_max']:g}): "
+                     "the force alternates step by step, a march instability")
+    if np.isfinite(alternation) and alternation > limit and _alternation_is_judged(study, i):
+        what = f"fs/2 alternation {alternation:.2e} (limit {limit:.0e})"
+        if band > limit or growth > _GROWING:
+            parts.append(f"{what}, top band {band:.2g}, growth {growth:.2f}: a march instability")
+        else:
+            rate = value("element_rate")
+            parts.append(f"{what}, but its top band is {band:.2g} and it does not grow ({growth:.2f}): the fourth "
+                         f"difference reads the steady ripple of element rows entering the contact at v / element "
+                         f"size = {rate / 1e3:.3g} kHz and its harmonics (the 1 mm discretisation of the road's input), "
+                         "not a march instability")
+    if flat and value("contact_holes", 0.0) > 0:
+        parts.append(f"{int(value('contact_holes'))} force-free elements inside a row of the flat road's contact")
+    return "; ".join(parts) if parts else "see the stability table"
 
 
 def _alternation_is_judged(study, i) -> bool:
