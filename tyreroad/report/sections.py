@@ -971,11 +971,13 @@ def _rolling_failure_cause(study, i, t) -> str:
         if band > limit or growth > _GROWING:
             parts.append(f"{what}, top band {band:.2g}, growth {growth:.2f}: a march instability")
         else:
-            rate = value("element_rate")
+            rate, removed = value("element_rate"), value("alternation_input_removed")
+            rest = (f"; with those lines removed it is {removed:.2e}, "
+                    + ("within the limit" if removed <= limit else "still past the limit")) if np.isfinite(removed) else ""
             parts.append(f"{what}, but its top band is {band:.2g} and it does not grow ({growth:.2f}): the fourth "
                          f"difference reads the steady ripple of element rows entering the contact at v / element "
-                         f"size = {rate / 1e3:.3g} kHz and its harmonics (the 1 mm discretisation of the road's input), "
-                         "not a march instability")
+                         f"size = {rate / 1e3:.3g} kHz and its harmonics (the 1 mm discretisation of the road's input)"
+                         f"{rest}; not a march instability")
     if flat and value("contact_holes", 0.0) > 0:
         parts.append(f"{int(value('contact_holes'))} force-free elements inside a row of the flat road's contact")
     return "; ".join(parts) if parts else "see the stability table"
@@ -1005,12 +1007,14 @@ def _rolling_stability_lines(study, t) -> list[str]:
              f"element size stays below fs/4: faster passes put real force content near fs/2); beside it, the "
              f"largest component in the top band 0.9-1 x fs/2 over the mean force and the growth of the fourth "
              f"difference from the first to the last third of the steady part (a march instability sits in the "
-             f"top band or grows; the ripple of elements entering the contact sits at v / element size and stays)"
+             f"top band or grows; the ripple of elements entering the contact sits at v / element size and stays), "
+             f"and the alternation once those input lines (k v / element size, k = 1 ... 5) are fitted and removed "
+             f"(a diagnostic: the verdict reads the alternation itself)"
              + (", and the most force-free elements inside a row of the flat road's contact (limit 0)"
                 if "flat_road" in study and study["flat_road"].values.any() else "") + ".", "",
-             "| material | v [m/s] | k_crit [N/m] | stiffest spring [N/m] | fs/2 alternation | top-band amplitude | "
-             "growth | holes | verdict |",
-             "|---|---|---|---|---|---|---|---|---|"]
+             "| material | v [m/s] | k_crit [N/m] | stiffest spring [N/m] | fs/2 alternation | without input lines | "
+             "top-band amplitude | growth | holes | verdict |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
     bad = set(_untrustworthy_rolling_cases(study, t))
     for i in dynamic:
         margin = float(study["margin_critical_stiffness"].values[i]) if "margin_critical_stiffness" in study else np.nan
@@ -1021,8 +1025,10 @@ def _rolling_stability_lines(study, t) -> list[str]:
         band = float(study["fs2_band_amplitude"].values[i]) if "fs2_band_amplitude" in study else np.nan
         growth = float(study["alternation_growth"].values[i]) if "alternation_growth" in study else np.nan
         past = " (past k_crit)" if stiff > margin else ""  # NaN compares False: no mark without a margin
+        removed = (float(study["alternation_input_removed"].values[i]) if "alternation_input_removed" in study
+                   else np.nan)
         lines.append(f"| {study['material'].values[i]} | {float(study['speed'].values[i]):g} | {margin:.3g} | "
-                     f"{stiff:.3g}{past} | {float(study['fs2_alternation'].values[i]):.2e} | {band:.1e} | "
+                     f"{stiff:.3g}{past} | {float(study['fs2_alternation'].values[i]):.2e} | {removed:.2e} | {band:.1e} | "
                      f"{growth:.2f} | {holes} | {verdict} |")
     if "flat_road" in study:
         for material in dict.fromkeys(study["material"].values.astype(str)):

@@ -103,6 +103,47 @@ def fs2_band_amplitude(force, fraction: float = 0.9) -> tuple[float, float]:
     return float(spectrum[top].max() / np.mean(f)), float(last / first) if first > 0 else float("nan")
 
 
+#: Harmonics of the element rate that :func:`alternation_without_input_lines` removes.
+INPUT_HARMONICS = 5
+
+
+def alternation_without_input_lines(force, element_rate: float, sample_rate: float,
+                                    harmonics: int = INPUT_HARMONICS, fraction: float = 0.9) -> float:
+    """:func:`tyreroad.stability.fs2_alternation` of a steady force after the road's input lines are removed [1].
+
+    Elements enter the contact at v / element size, so a rolling pass's force carries lines at k v / element
+    size (aliased into [0, fs/2]); on a flat road they are its only fluctuation, and the fourth difference
+    reads their harmonics near fs/2 as alternation. Their amplitudes and phases (k = 1 ... ``harmonics``) and a
+    cubic trend are fitted by least squares and removed; a line whose aliased frequency falls in the top band
+    [``fraction``, 1] x fs/2 is kept (it cannot be told from a march instability there). What remains is the
+    alternation the march itself adds. NaN for fewer than 32 samples or a force without a positive mean.
+
+    Parameters
+    ----------
+    force : array_like
+        Total force over the steady part [N].
+    element_rate, sample_rate : float
+        v / element size and the time-step rate [Hz].
+    """
+    f = np.asarray(force, dtype=float)
+    if f.size < 32 or not np.mean(f) > 0:
+        return float("nan")
+    n = np.arange(f.size, dtype=float)
+    u = 2.0 * n / (f.size - 1) - 1.0
+    columns = [u ** 0, u, u ** 2, u ** 3]
+    for k in range(1, int(harmonics) + 1):
+        alias = (k * float(element_rate)) % float(sample_rate)
+        alias = min(alias, float(sample_rate) - alias)
+        if alias <= 0.0 or alias >= 0.5 * fraction * float(sample_rate):
+            continue
+        phase = 2.0 * np.pi * alias / float(sample_rate) * n
+        columns += [np.cos(phase), np.sin(phase)]
+    basis = np.stack(columns, axis=1)
+    coefficients, *_ = np.linalg.lstsq(basis, f, rcond=None)
+    residual = f - basis @ coefficients
+    return float(np.sqrt(np.mean((np.diff(residual, 4) / 16.0) ** 2))) / float(np.mean(np.abs(f)))
+
+
 def contact_holes(run: xr.Dataset) -> int:
     """The most elements without force inside a row's contact, over the pass's steady snapshots.
 
@@ -169,6 +210,9 @@ def aggregate_rolling(runs: Sequence[xr.Dataset], band_limits=(100.0, 5000.0)) -
             "contact_holes": contact_holes(r),
             "fs2_band_amplitude": fs2_band_amplitude(fluct)[0] if r.attrs["mode"] == "dynamic" else float("nan"),
             "alternation_growth": fs2_band_amplitude(fluct)[1] if r.attrs["mode"] == "dynamic" else float("nan"),
+            "alternation_input_removed": alternation_without_input_lines(
+                fluct, float(r.attrs["speed"]) / float(r.attrs["element_size"]), 1.0 / dt)
+            if r.attrs["mode"] == "dynamic" else float("nan"),
             "element_rate": float(r.attrs["speed"]) / float(r.attrs["element_size"]),
             "sample_rate": 1.0 / dt,
             "flat_road": int("z1" in r and float(np.ptp(r["z1"].values)) == 0.0),
@@ -206,6 +250,10 @@ def aggregate_rolling(runs: Sequence[xr.Dataset], band_limits=(100.0, 5000.0)) -
                                     "force (tyreroad.rolling.dataset.fs2_band_amplitude; NaN: quasi-static)"),
         "alternation_growth": ("1", "rms fourth difference of the steady force over its last third, over its first "
                                     "third (> 1: growing; NaN: quasi-static)"),
+        "alternation_input_removed": ("1", "fs2_alternation after the road's input lines at k v / element size "
+                                           "(k = 1 ... 5, aliased, outside the top band) are fitted and removed "
+                                           "(tyreroad.rolling.dataset.alternation_without_input_lines; NaN: "
+                                           "quasi-static)"),
         "element_rate": ("Hz", "elements passed per second, v / element size: the road texture's input reaches "
                                "about this frequency"),
         "sample_rate": ("Hz", "the pass's time-step rate"),
