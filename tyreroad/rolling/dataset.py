@@ -113,8 +113,8 @@ def alternation_without_input_lines(force, element_rate: float, sample_rate: flo
 
     Elements enter the contact at v / element size, so a rolling pass's force carries lines at k v / element
     size (aliased into [0, fs/2]); on a flat road they are its only fluctuation, and the fourth difference
-    reads their harmonics near fs/2 as alternation. Their amplitudes and phases (k = 1 ... ``harmonics``) and a
-    cubic trend are fitted by least squares and removed; a line whose aliased frequency falls in the top band
+    reads their harmonics near fs/2 as alternation. Their amplitudes and phases (k = 1 ... ``harmonics``)
+    are fitted to its fourth difference by least squares and removed; a line whose aliased frequency falls in the top band
     [``fraction``, 1] x fs/2 is kept (it cannot be told from a march instability there). What remains is the
     alternation the march itself adds. NaN for fewer than 32 samples or a force without a positive mean.
 
@@ -128,9 +128,12 @@ def alternation_without_input_lines(force, element_rate: float, sample_rate: flo
     f = np.asarray(force, dtype=float)
     if f.size < 32 or not np.mean(f) > 0:
         return float("nan")
-    n = np.arange(f.size, dtype=float)
-    u = 2.0 * n / (f.size - 1) - 1.0
-    columns = [u ** 0, u, u ** 2, u ** 3]
+    # fitted to the fourth difference itself, whose lines are the force's (same frequencies): a fit to the force
+    # would leak its large low-frequency content (a rough road's texture) into the lines near fs/2, and least
+    # squares on the fourth difference can only lower its rms
+    d4 = np.diff(f, 4) / 16.0
+    n = np.arange(d4.size, dtype=float)
+    columns = []
     for k in range(1, int(harmonics) + 1):
         alias = (k * float(element_rate)) % float(sample_rate)
         alias = min(alias, float(sample_rate) - alias)
@@ -138,10 +141,11 @@ def alternation_without_input_lines(force, element_rate: float, sample_rate: flo
             continue
         phase = 2.0 * np.pi * alias / float(sample_rate) * n
         columns += [np.cos(phase), np.sin(phase)]
-    basis = np.stack(columns, axis=1)
-    coefficients, *_ = np.linalg.lstsq(basis, f, rcond=None)
-    residual = f - basis @ coefficients
-    return float(np.sqrt(np.mean((np.diff(residual, 4) / 16.0) ** 2))) / float(np.mean(np.abs(f)))
+    if columns:
+        basis = np.stack(columns, axis=1)
+        coefficients, *_ = np.linalg.lstsq(basis, d4, rcond=None)
+        d4 = d4 - basis @ coefficients
+    return float(np.sqrt(np.mean(d4 ** 2))) / float(np.mean(np.abs(f)))
 
 
 def contact_holes(run: xr.Dataset) -> int:
