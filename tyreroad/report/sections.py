@@ -968,10 +968,18 @@ def _rolling_failure_cause(study, i, t) -> str:
                      "the force alternates step by step, a march instability")
     if np.isfinite(alternation) and alternation > limit and _alternation_is_judged(study, i):
         what = f"fs/2 alternation {alternation:.2e} (limit {limit:.0e})"
-        if band > limit or growth > _GROWING:
+        rate, fs = value("element_rate"), value("sample_rate")
+        in_top = [k for k in range(1, 6) if np.isfinite(rate) and np.isfinite(fs)
+                  and min((k * rate) % fs, fs - (k * rate) % fs) >= 0.45 * fs]
+        if growth <= _GROWING and band > limit and in_top:
+            k = in_top[0]
+            parts.append(f"{what}, top band {band:.2g}, growth {growth:.2f}: either a march instability or the road "
+                         f"input's line {k} x v / element size = {k * rate / 1e3:.3g} kHz, which aliases into the top "
+                         "band, where the record cannot tell them apart")
+        elif band > limit or growth > _GROWING:
             parts.append(f"{what}, top band {band:.2g}, growth {growth:.2f}: a march instability")
         else:
-            rate, removed = value("element_rate"), value("alternation_input_removed")
+            removed = value("alternation_input_removed")
             rest = (f"; with those lines removed it is {removed:.2e}, "
                     + ("within the limit" if removed <= limit else "still past the limit")) if np.isfinite(removed) else ""
             parts.append(f"{what}, but its top band is {band:.2g} and it does not grow ({growth:.2f}): the fourth "
