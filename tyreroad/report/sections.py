@@ -18,6 +18,7 @@ import yaml
 
 from .. import io
 from ..study import variant_members
+from ..rolling.dataset import TOP_BAND, input_line_frequencies
 from .claims import _MM, _MN, DIRECTION_OPPOSITE, HOLDS, NOT_EVALUATED, THRESHOLDS, ClaimContext, ClaimResult, _pct
 
 __all__ = [
@@ -969,8 +970,8 @@ def _rolling_failure_cause(study, i, t) -> str:
     if np.isfinite(alternation) and alternation > limit and _alternation_is_judged(study, i):
         what = f"fs/2 alternation {alternation:.2e} (limit {limit:.0e})"
         rate, fs = value("element_rate"), value("sample_rate")
-        in_top = [k for k in range(1, 6) if np.isfinite(rate) and np.isfinite(fs)
-                  and min((k * rate) % fs, fs - (k * rate) % fs) >= 0.45 * fs]
+        in_top = ([] if not (np.isfinite(rate) and np.isfinite(fs)) else
+                  [k + 1 for k, line in enumerate(input_line_frequencies(rate, fs)) if line >= 0.5 * TOP_BAND * fs])
         if growth <= _GROWING and band > limit and in_top:
             k = in_top[0]
             parts.append(f"{what}, top band {band:.2g}, growth {growth:.2f}: either a march instability or the road "

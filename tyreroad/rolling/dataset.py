@@ -106,9 +106,19 @@ def fs2_band_amplitude(force, fraction: float = 0.9) -> tuple[float, float]:
 #: Harmonics of the element rate that :func:`alternation_without_input_lines` removes.
 INPUT_HARMONICS = 5
 
+#: Lower edge of the top band, as a fraction of fs/2 (:func:`fs2_band_amplitude`).
+TOP_BAND = 0.9
+
+
+def input_line_frequencies(element_rate: float, sample_rate: float, harmonics: int = INPUT_HARMONICS) -> np.ndarray:
+    """The road input's lines k v / element size, k = 1 ... ``harmonics``, aliased into [0, fs/2] [Hz]."""
+    fs = float(sample_rate)
+    lines = (np.arange(1, int(harmonics) + 1) * float(element_rate)) % fs
+    return np.minimum(lines, fs - lines)
+
 
 def alternation_without_input_lines(force, element_rate: float, sample_rate: float,
-                                    harmonics: int = INPUT_HARMONICS, fraction: float = 0.9) -> float:
+                                    harmonics: int = INPUT_HARMONICS, fraction: float = TOP_BAND) -> float:
     """:func:`tyreroad.stability.fs2_alternation` of a steady force after the road's input lines are removed [1].
 
     Elements enter the contact at v / element size, so a rolling pass's force carries lines at k v / element
@@ -134,9 +144,7 @@ def alternation_without_input_lines(force, element_rate: float, sample_rate: flo
     d4 = np.diff(f, 4) / 16.0
     n = np.arange(d4.size, dtype=float)
     columns = []
-    for k in range(1, int(harmonics) + 1):
-        alias = (k * float(element_rate)) % float(sample_rate)
-        alias = min(alias, float(sample_rate) - alias)
+    for alias in input_line_frequencies(element_rate, sample_rate, harmonics):
         if alias <= 0.0 or alias >= 0.5 * fraction * float(sample_rate):
             continue
         phase = 2.0 * np.pi * alias / float(sample_rate) * n
@@ -199,6 +207,7 @@ def aggregate_rolling(runs: Sequence[xr.Dataset], band_limits=(100.0, 5000.0)) -
                    if r.attrs["mode"] == "dynamic" and fluct.size > 2 else 0.0)
         mean_f = float(r["steady_force"])
         loss = float(r["rolling_loss_force"])
+        band, growth = fs2_band_amplitude(fluct) if r.attrs["mode"] == "dynamic" else (float("nan"), float("nan"))
         rows.append({
             "material": r.attrs["material"], "mode": r.attrs["mode"], "speed": float(r.attrs["speed"]),
             "steady_force": mean_f, "rolling_loss_force": loss, "steady_loss_force": float(r["steady_loss_force"]),
@@ -212,8 +221,7 @@ def aggregate_rolling(runs: Sequence[xr.Dataset], band_limits=(100.0, 5000.0)) -
             "max_spring_stiffness": float(np.max(r["max_spring_stiffness"].values, initial=0.0))
             if "max_spring_stiffness" in r and r.attrs["mode"] == "dynamic" else float("nan"),
             "contact_holes": contact_holes(r),
-            "fs2_band_amplitude": fs2_band_amplitude(fluct)[0] if r.attrs["mode"] == "dynamic" else float("nan"),
-            "alternation_growth": fs2_band_amplitude(fluct)[1] if r.attrs["mode"] == "dynamic" else float("nan"),
+            "fs2_band_amplitude": band, "alternation_growth": growth,
             "alternation_input_removed": alternation_without_input_lines(
                 fluct, float(r.attrs["speed"]) / float(r.attrs["element_size"]), 1.0 / dt)
             if r.attrs["mode"] == "dynamic" else float("nan"),
