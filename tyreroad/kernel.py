@@ -155,6 +155,11 @@ class LayerKernel:
         None: not known (a kernel built in code, or a file from before the margin was stored).
     construction : str, optional
         How the kernel was built from the FRF (``greens.construction``), for messages.
+    margin_window : (int, int), optional
+        The window [elements along x, y] ``critical_stiffness`` holds on, when smaller than the table's patch (a
+        rolling strip's contact window, :func:`tyreroad.pipeline.build_greens`): the margin covers every contact
+        set inside such a window, and a run checks its contact against it (:meth:`check_contact_extent`);
+        None: every contact set of the patch.
     """
 
     lags: np.ndarray
@@ -167,6 +172,7 @@ class LayerKernel:
     name: str = "kernel"
     critical_stiffness: float | None = None
     construction: str | None = None
+    margin_window: tuple[int, int] | None = None
 
     def __post_init__(self) -> None:
         g = np.asarray(self.lags, dtype=float)
@@ -258,8 +264,10 @@ class LayerKernel:
             backing = functools.partial(backing_force, material=material, sample_rate=fs, n_fft=n_fft)
         k_crit = float(greens["critical_stiffness"].values) if "critical_stiffness" in greens else None
         construction = greens.attrs.get("construction")
+        window = greens.attrs.get("margin_window")
         return cls(lags, False, fs, memory, c, response, backing, name, k_crit,
-                   None if construction is None else str(construction))
+                   None if construction is None else str(construction),
+                   None if window is None else tuple(int(v) for v in np.atleast_1d(window)))
 
     # ---------------------------------------------------------------------------------------
     # what the solvers ask
@@ -308,6 +316,38 @@ class LayerKernel:
         raise ValueError(f"{what}. Refused before the first step: select a kernel stable for these springs "
                          "(greens.construction: radau is stable for every spring, hard contact included), soften "
                          "the springs, or set solver.stability: warn to run and record it")
+
+    def check_contact_extent(self, extent, policy: str = "refuse", where: str = "") -> None:
+        """Refuse (or, ``policy="warn"``, log) a run whose contact left the window its margin holds on.
+
+        Parameters
+        ----------
+        extent : (int, int)
+            The largest extent of the run's contact [elements along x, y]: the span of the elements with a
+            positive spring stiffness or force, over all steps.
+        policy : {"refuse", "warn"}
+            ``solver.stability``.
+        where : str
+            The step where it was largest, for the message.
+
+        Raises
+        ------
+        ValueError
+            With ``refuse``, naming the extent, the window and what to change.
+        """
+        if self.static or self.margin_window is None:
+            return
+        if all(int(e) <= int(w) for e, w in zip(extent, self.margin_window)):
+            return
+        what = (f"{self.name}: the contact spans {extent[0]} x {extent[1]} elements{where}, beyond the "
+                f"{self.margin_window[0]} x {self.margin_window[1]} window the kernel's stability margin "
+                f"(k_crit = {self.critical_stiffness:.4g} N/m) was computed on, so the run's stability is not "
+                "certified")
+        if policy == "warn":
+            logger.warning("%s; kept (solver.stability: warn)", what)
+            return
+        raise ValueError(f"{what}. Refused, no file written: raise rolling.contact_window (elements along x) to "
+                         "cover the contact, or set solver.stability: warn to keep such a run and record it")
 
     def needs_memory(self, n_steps: int | None) -> bool:
         """True for a dynamic run longer than the kept lags (a one-lag dynamic kernel is memoryless)."""

@@ -54,7 +54,7 @@ from .symmetry import fits, patch_blocks, strip_lambda_min, strip_symbol_blocks
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["PatchMargin", "patch_margin", "uses_strip_bound", "STRIP_MAX_WIDTH"]
+__all__ = ["PatchMargin", "patch_margin", "uses_dense_margin", "uses_strip_bound", "STRIP_MAX_WIDTH"]
 
 #: Relative level (of the largest |entry| of G_d) below which p counts as zero.
 MARGIN_TOLERANCE = 1e-9
@@ -241,12 +241,20 @@ def _ladder(b, c, phi: float, tol: float) -> float:
 STRIP_MAX_WIDTH = 64
 
 
+def uses_dense_margin(shape, max_dense: int = FFT_THRESHOLD) -> bool:
+    """True when :func:`patch_margin` can evaluate a patch of this shape on its own matrices: its largest
+    reflection block (ceil(nx / 2) ceil(ny / 2) elements, even tables) is within ``max_dense`` (a square patch's
+    x <-> y split makes its blocks smaller still, so this never claims more than the margin does)."""
+    nx, ny = (int(v) for v in shape)
+    return (-(-nx // 2)) * (-(-ny // 2)) <= max_dense
+
+
 def uses_strip_bound(shape, max_dense: int = FFT_THRESHOLD) -> bool:
     """True when :func:`patch_margin` evaluates a patch of this shape on the strip bound: its largest reflection
     block is above ``max_dense`` elements and its short side at most :data:`STRIP_MAX_WIDTH` (the greens stage
     designs such a patch's correction on the same bound)."""
     nx, ny = (int(v) for v in shape)
-    return (-(-nx // 2)) * (-(-ny // 2)) > max_dense and min(nx, ny) <= STRIP_MAX_WIDTH
+    return not uses_dense_margin(shape, max_dense) and min(nx, ny) <= STRIP_MAX_WIDTH
 
 
 def _strip_margin(kernel: LayerKernel, shape, bound, todo: np.ndarray, chunk: int, t0: float,

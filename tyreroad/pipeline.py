@@ -178,26 +178,31 @@ def run_greens(
     element_size: float,
     out_nc: str | Path,
     belt_cfg: Mapping[str, Any] | None = None,
+    margin_window: Sequence[int] | None = None,
 ) -> None:
     """Stage ``greens``: the layer's element Green's functions for one material (:func:`build_greens`);
-    with ``belt_cfg`` (the config's ``belt`` section), tread + flexible belt (:mod:`tyreroad.belt_stage`)."""
+    with ``belt_cfg`` (the config's ``belt`` section), tread + flexible belt (:mod:`tyreroad.belt_stage`);
+    with ``margin_window`` (a rolling strip's contact window [elements along x, y]), the correction and the
+    margin on that window."""
     from .belt_stage import belt_settings
     from .greens import GreensSettings
 
     material = _material(material_name, material_cfg)
     ds = build_greens(material, n_elements, float(element_size), GreensSettings.from_config(greens_cfg),
-                      belt=belt_settings(belt_cfg))
+                      belt=belt_settings(belt_cfg), margin_window=margin_window)
     provenance = {
         "material": {material_name: dict(material.config)},
         "greens": dict(greens_cfg),
         "n_elements": list(n_elements),
         "element_size": element_size,
+        **({} if margin_window is None else {"margin_window": [int(v) for v in margin_window]}),
         **({} if belt_cfg is None else {"belt": dict(belt_cfg)}),
     }
     io.write_dataset(ds, out_nc, provenance, stage="greens", material=material_name)
 
 
-def build_greens(material, n_elements: Sequence[int], element_size: float, settings, belt=None) -> xr.Dataset:
+def build_greens(material, n_elements: Sequence[int], element_size: float, settings, belt=None,
+                 margin_window: Sequence[int] | None = None) -> xr.Dataset:
     """The kernel the greens stage makes for a material and patch, under ``settings.construction``.
 
     One place for what every time-domain user of a kernel runs on (the greens stage, the sensitivity
@@ -215,6 +220,14 @@ def build_greens(material, n_elements: Sequence[int], element_size: float, setti
     belt : (tyreroad.belt.BeltProperties, str), optional
         A flexible belt behind the tread and the indentation's reference (:func:`tyreroad.belt_stage.add_belt`,
         added before the spring-safe correction, so that it and the checks see the whole kernel); None: rigid.
+    margin_window : (int, int), optional
+        The largest contact the kernel must be stable on [elements along x, y], when it is smaller than the
+        patch (a rolling strip: the contact spans ~2 sqrt(2 R d0) of its 150 mm). The passive correction is
+        designed, and the stability margin computed, on this window: every contact set inside any such window
+        of the patch is a principal submatrix of the window's matrices (the kernel is translation invariant),
+        so the margin holds for it; a run must check that its contact stays inside (recorded in the file's
+        ``margin_window`` attribute). None: the whole patch. The Radau kernel is stable for every spring on
+        any patch and ignores it.
 
     Returns
     -------
@@ -225,6 +238,9 @@ def build_greens(material, n_elements: Sequence[int], element_size: float, setti
 
     support = None
     shape = tuple(int(n) for n in n_elements)
+    check = shape if margin_window is None else tuple(min(int(w), n) for w, n in zip(margin_window, shape))
+    if min(check) < 1:
+        raise ValueError(f"margin_window: expected positive element counts, got {list(margin_window)}")
     ds = greens_dataset(
         material,
         n_elements=shape,
@@ -250,10 +266,14 @@ def build_greens(material, n_elements: Sequence[int], element_size: float, setti
         # design leaves tread-eta0.5's 150 x 20 strip at k_crit 3.3e4 N/m (its springs reach 6.8e4), and
         # interlacing cannot carry a margin from a sub-patch to the whole strip. A wide patch (a footprint)
         # gets the correction of its central 20 x 20 and, from the margin, only the conservative circulant bound
-        from .margin import uses_strip_bound
+        from .margin import uses_dense_margin, uses_strip_bound
 
-        strip = uses_strip_bound(shape)
-        design = shape if strip else (min(shape[0], 20), min(shape[1], 20))
+        # designed on the patch whose own matrices the margin below evaluates (every block within the dense
+        # limit, or the strip bound): a design on a sub-patch does not bound the whole patch (interlacing runs the
+        # other way: tread-eta0.5 designed for 1.05e5 N/m on the centre 20 x 20 of 40 x 20 had k_crit 6.1e4 there,
+        # designed on 40 x 20 itself 7.6e4). Only a patch beyond both (a footprint) keeps its centre's design.
+        strip = uses_strip_bound(check)
+        design = check if strip or uses_dense_margin(check) else (min(check[0], 20), min(check[1], 20))
         # the targets in turn on one eigen-solve pass; checked on the margin's whole theta grid (n_dense), so a
         # target met is met by the margin below, which reuses the design's eigenvalues (same patch)
         # a low-loss variant that misses the stiffest target with 128 taps gets the next target up with 256 (the
@@ -264,14 +284,16 @@ def build_greens(material, n_elements: Sequence[int], element_size: float, setti
         for note in correction.notes:  # a target not reachable within the fidelity budget (low-loss variants)
             logger.warning("greens %s: %s", material.name, note)
         logger.info("greens %s: %s", material.name, correction.summary())
-        if design == shape:
+        if design == check:
             support = correction.margin_support()
     if settings.construction == "radau":
         from .stage import radau_greens
 
         # the stage kernel beside the fold kernel: its tables, margin (inf by construction) and fidelity
         return radau_greens(ds, material, shape)
-    return _judge_kernel(ds, material, shape, settings.construction, support, response)
+    if check != shape:
+        ds.attrs["margin_window"] = list(check)
+    return _judge_kernel(ds, material, shape, settings.construction, support, response, margin_shape=check)
 
 
 #: Springs [N/m] the passive correction is designed for, tried in turn until the LP meets one (the last
@@ -285,7 +307,7 @@ PASSIVE_TAPS = (128, 256)
 PASSIVE_DENSE = 1024
 
 
-def _judge_kernel(ds, material, shape, construction: str, support=None, response=None):
+def _judge_kernel(ds, material, shape, construction: str, support=None, response=None, margin_shape=None):
     """The greens stage's checks of its own kernel (issue 23): the stability margin over the unit circle
     and the fidelity to the element FRF, both stored in the file; a kernel that misses its FRF is refused.
 
@@ -310,7 +332,8 @@ def _judge_kernel(ds, material, shape, construction: str, support=None, response
             f"greens {material.name}: the '{construction}' kernel misses the element FRF by "
             f"{fidelity.magnitude:.2%} of |G_0| / {fidelity.phase:.4f} rad over {fidelity.band[0]:g}-"
             f"{fidelity.band[1]:g} Hz (limits 1 % / 0.01 rad, tyreroad.fidelity): refused, no file written")
-    margin = patch_margin(kernel, shape, support=support)  # support: the correction's eigenvalues, reused
+    # support: the correction's eigenvalues, reused; margin_shape: a rolling strip's contact window (build_greens)
+    margin = patch_margin(kernel, shape if margin_shape is None else tuple(margin_shape), support=support)
     theta = xr.DataArray(margin.theta, dims="theta", attrs={"units": "rad", "long_name": "theta = 2 pi f / fs "
                                                             "on the unit circle z = exp(i theta)"})
     ds = ds.assign_coords(theta=theta)

@@ -54,6 +54,12 @@ def rolling_dataset(result: RollingResult, info: Mapping[str, float], mode: str,
         "newton_iterations": ("step", result.newton_iterations, a("1", "Newton iterations")),
         "krylov_iterations": ("step", result.krylov_iterations, a("1", "Krylov products (0: direct solve)")),
         "residual": ("step", result.residual, a("m", "final max-norm Newton residual")),
+        **({} if result.contact_extent is None else {
+            "contact_extent_x": ("step", result.contact_extent[:, 0], a(
+                "1", "span of the contact along x [elements]: of the elements with a positive force or spring "
+                "stiffness (a kernel's margin_window must cover it)")),
+            "contact_extent_y": ("step", result.contact_extent[:, 1], a("1", "span of the contact along y [elements]")),
+        }),
         "snapshot_step": ("snapshot", result.snapshot_step, a("1", "step of the element force map")),
         "snapshot_x_c": ("snapshot", result.x_c[result.snapshot_step], a("m", "x_c of the element force map")),
         "element_force": (("snapshot", "ex", "ey"), result.snapshot_force, a("N", "contact spring force per element")),

@@ -44,6 +44,9 @@ class RollingResult:
     element_force : numpy.ndarray or None
         F_e of every step [N], shape (n, nx, ny), when the recorder was built with ``record_forces=True``
         (the input of :func:`tyreroad.belt_vibration.belt_velocity_at_points`); None otherwise.
+    contact_extent : numpy.ndarray or None
+        Span of the contact [elements along x, y] per step, shape (n, 2): of the elements with a positive
+        force or spring stiffness (0 without contact); what a kernel's margin window must cover.
     """
 
     time: np.ndarray
@@ -60,6 +63,14 @@ class RollingResult:
     max_spring_stiffness: np.ndarray
     stability: StabilityRecord | None = None
     element_force: np.ndarray | None = None
+    contact_extent: np.ndarray | None = None
+
+    def largest_contact_extent(self) -> tuple[tuple[int, int], int]:
+        """((x, y) [elements], step): the largest span of the contact along x (then y) over the pass."""
+        if self.contact_extent is None or not len(self.contact_extent):
+            return (0, 0), 0
+        n = int(np.lexsort((self.contact_extent[:, 1], self.contact_extent[:, 0]))[-1])
+        return (int(self.contact_extent[n, 0]), int(self.contact_extent[:, 1].max())), n
 
 
 class RollingRecorder:
@@ -92,6 +103,7 @@ class RollingRecorder:
         self.krylov_iterations = np.zeros(n, dtype=np.int64)
         self.residual = np.zeros(n)
         self.max_spring_stiffness = np.zeros(n)
+        self.contact_extent = np.zeros((n, 2), dtype=np.int64)
         self.snapshot_steps = np.asarray(sorted(set(int(s) for s in snapshot_steps)), dtype=np.int64)
         self.snapshots = np.zeros((self.snapshot_steps.size, loading.shape[0] * loading.shape[1]))
         self.element_forces = np.zeros((n, loading.shape[0] * loading.shape[1])) if record_forces else None
@@ -110,6 +122,10 @@ class RollingRecorder:
         self.krylov_iterations[n] = step.krylov_iterations
         self.residual[n] = step.residual
         self.max_spring_stiffness[n] = float(np.max(step.stiffness, initial=0.0))
+        engaged = np.flatnonzero((f > 0) | (np.asarray(step.stiffness) > 0))
+        if engaged.size:
+            ix, iy = np.divmod(engaged, self.shape[1])
+            self.contact_extent[n] = (ix.max() - ix.min() + 1, iy.max() - iy.min() + 1)
         where = np.flatnonzero(self.snapshot_steps == n)
         if where.size:
             self.snapshots[where[0]] = f
@@ -136,4 +152,5 @@ class RollingRecorder:
             max_spring_stiffness=self.max_spring_stiffness[:n].copy(),
             element_force=(None if self.element_forces is None
                            else self.element_forces[:n].reshape((n,) + tuple(self.shape)).copy()),
+            contact_extent=self.contact_extent[:n].copy(),
         )

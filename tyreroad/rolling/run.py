@@ -239,4 +239,7 @@ def solve_rolling_run(surface: xr.Dataset, springs: xr.Dataset, greens: xr.Datas
         steady = steady_mask(result.x_c, info, settings.steady_margin, settings.steady_entry)
         record = stability_record(kernel, z1.shape, result.max_spring_stiffness, result.force, threads, steady)
         result = dataclasses.replace(result, stability=record)
+        # a margin computed on a contact window (a rolling strip's kernel) holds only while the contact fits in it
+        extent, n = result.largest_contact_extent()
+        kernel.check_contact_extent(extent, solver.stability, f" at step {n} (x_c = {result.x_c[n]:.6g} m)")
     return result, info

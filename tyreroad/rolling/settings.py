@@ -45,6 +45,10 @@ class RollingSettings:
         x_c of the stored element force maps, as fractions of the strip length (default 0.25, 0.5, 0.75).
     band_limits : tuple of float
         Lowest and highest 1/3-octave band centres of the force spectrum [Hz] (default 100, 5000).
+    contact_window : int
+        Elements along x the contact may span (default 40; the default load's contact spans ~23): the rolling
+        kernel's spring-safe correction and stability margin are computed on this window of the strip (every
+        contact inside it is covered), and a pass whose contact spans more is refused (``solver.stability``).
     """
 
     radius: float = 0.3
@@ -59,6 +63,7 @@ class RollingSettings:
     entry_margin: int = 3
     snapshots: tuple[float, ...] = (0.25, 0.5, 0.75)
     band_limits: tuple[float, float] = (100.0, 5000.0)
+    contact_window: int = 40
 
     def __post_init__(self) -> None:
         checks.real("rolling.radius", self.radius, positive=True)
@@ -74,6 +79,7 @@ class RollingSettings:
         checks.integer("rolling.steady_margin", self.steady_margin, minimum=0)
         checks.real("rolling.steady_entry", self.steady_entry, nonnegative=True)
         checks.integer("rolling.entry_margin", self.entry_margin, minimum=0)
+        checks.integer("rolling.contact_window", self.contact_window, minimum=2)
         if (self.x_start is None) != (self.x_end is None):
             raise ValueError("rolling.pass: give both x_start and x_end [m], or neither (automatic pass)")
         if self.x_start is not None and not self.x_start < self.x_end:
@@ -122,4 +128,5 @@ _CONVERTERS = {
     "entry_margin": int,
     "snapshots": _float_tuple,
     "band_limits": _float_tuple,
+    "contact_window": int,
 }

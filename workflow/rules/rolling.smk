@@ -2,6 +2,8 @@
 #   snakemake -j2 rolling  ->  {results_dir}/rolling/..., rolling.nc, rolling.md, figures 11-14.
 # The strips (rolling.surfaces) use the generic surface and springs rules, and their own Green's
 # functions sized for the largest strip: the study's greens files stay as they are.
+from tyreroad.rolling import RollingSettings
+
 ROLLING_PASS_CFG = {k: v for k, v in ROLLING.items() if k not in ("surfaces", "materials", "speeds",
                                                                    "quasistatic_speeds", "reference_material")}
 
@@ -17,6 +19,9 @@ rule rolling_greens:
         material=resolved_material,
         greens=config["greens"],
         n_elements=rolling_greens_elements if ROLLING_SURFACES else [1, 1],
+        # the correction and the margin on the contact's window of the strip (rolling.contact_window elements
+        # along x): every contact set inside it is covered, and each pass checks that its contact stays inside
+        margin_window=[RollingSettings.from_config(ROLLING_PASS_CFG).contact_window, 10**6],
         element_size=study_element_size(),
         code=SOURCE["greens"],
     threads: 1
@@ -41,11 +46,7 @@ rule rolling_run:
     params:
         check=checked,
         rolling=ROLLING_PASS_CFG,
-        # the strips' kernels carry a certified margin (the strip bound, tyreroad.margin), but tread-eta0.5's is
-        # below its stiffest spring (6.0e4 against 6.8e4 N/m on 150 x 20: no excitation-element correction
-        # within the FRF limit reaches it, and radau is dense-only up to 1600 elements): its passes run, record
-        # their fs/2 alternation and are flagged "(past k_crit)" in rolling.md, instead of refusing
-        solver=dict(config["solver"], stability="warn"),
+        solver=config["solver"],
         code=SOURCE["rolling"],
     threads: 1
     resources:  # cluster requests (tyreroad.cluster), from the strip size and the pass length in steps

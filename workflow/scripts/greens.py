@@ -17,4 +17,5 @@ pipeline.run_greens(
     element_size=snakemake.params.element_size,
     out_nc=snakemake.output.nc,
     belt_cfg=getattr(snakemake.params, "belt", None),  # rule belt_greens: tread + flexible belt
+    margin_window=getattr(snakemake.params, "margin_window", None),  # rule rolling_greens: the contact's window
 )
