@@ -468,3 +468,44 @@ def test_a_missed_target_hands_its_rows_to_the_next_and_the_met_one_holds(tread)
     assert corr.in_band <= 1e-3 * 1.01
     margin = patch_margin(LayerKernel.from_greens(ds, "dynamic"), SHAPE)
     assert margin.k_crit >= 1e6
+
+
+def test_margin_window_covers_every_contact_inside_it_and_a_run_is_held_to_it(tread):
+    """A rolling strip's kernel: the correction and the margin on a window of the strip (12 x 4 strip, 6 x 4
+    window). The stored k_crit is the window's own margin (recomputed from scratch), the whole strip's margin is
+    no higher (interlacing), a sub-window's no lower; a pass whose contact spans more than the window is refused
+    (or, with warn, logged), one inside it is not."""
+    from tyreroad.pipeline import build_greens
+    from tyreroad.greens import GreensSettings
+
+    settings = GreensSettings.from_config({"construction": "passive"})
+    ds = build_greens(tread, (12, 4), 1e-3, settings, margin_window=(6, 10**6))
+    assert list(ds.attrs["margin_window"]) == [6, 4]
+    kernel = LayerKernel.from_greens(ds, "dynamic")
+    assert kernel.margin_window == (6, 4)
+    stored = float(ds["critical_stiffness"])
+    window = patch_margin(kernel, (6, 4), n_theta=1025).k_crit
+    # both certified lower bounds of the same k_crit (from the design's eigenvalues, or the Cholesky ladder)
+    assert stored == pytest.approx(window, rel=1e-3)
+    assert stored >= float(ds.attrs["spring_correction_k_target"])  # the design's target holds where it was designed
+    assert patch_margin(kernel, (12, 4), n_theta=1025).k_crit <= window * (1 + 1e-3)
+    assert patch_margin(kernel, (4, 4), n_theta=1025).k_crit >= window * (1 - 1e-3)
+    kernel.check_contact_extent((6, 4), "refuse")  # inside: nothing
+    with pytest.raises(ValueError, match=r"the contact spans 7 x 4 elements at step 9, beyond the 6 x 4 window.*"
+                                         r"raise rolling.contact_window"):
+        kernel.check_contact_extent((7, 4), "refuse", " at step 9")
+    kernel.check_contact_extent((7, 4), "warn")  # logged, not raised
+    LayerKernel.from_greens(build_greens(tread, (6, 4), 1e-3, settings), "dynamic").check_contact_extent((99, 99))
+
+
+def test_a_dense_patch_wider_than_20_is_designed_on_itself():
+    """The correction is designed on the matrices the margin evaluates: on a 24 x 12 patch of tread-eta0.5
+    (blocks of 72, within the dense limit) the stored k_crit meets the design's target. Designed on its centre
+    20 x 12, as before, the design met 1.2e5 N/m there and the patch's k_crit was 1.04e5."""
+    from tyreroad.pipeline import build_greens
+    from tyreroad.greens import GreensSettings
+
+    material = material_from_config("tread-eta0.5", load_config(ROOT / "config" / "config.yaml")["materials"])
+    ds = build_greens(material, (24, 12), 1e-3, GreensSettings.from_config({"construction": "passive"}))
+    assert "margin_window" not in ds.attrs
+    assert float(ds["critical_stiffness"]) >= float(ds.attrs["spring_correction_k_target"])

@@ -576,3 +576,26 @@ def test_top_band_amplitude_tells_an_instability_from_the_element_ripple():
     alternation = 500.0 * (1 + 1e-4 * (-1.0) ** n * 1.005 ** n)
     band, growth = fs2_band_amplitude(alternation)
     assert band > 1e-3 and growth > 5.0
+
+
+def test_recorder_keeps_the_contact_extent_of_every_step():
+    """The span of the engaged elements (force or tangent stiffness > 0) along x and y, per step; the largest
+    along x over the pass and its step."""
+    from types import SimpleNamespace
+
+    from tyreroad.rolling.geometry import RollingPass
+    from tyreroad.rolling.recorder import RollingRecorder
+
+    z1 = np.zeros((8, 3))
+    loading = RollingPass(z1, np.arange(8) * 1e-3, 0.3, 1e-4, np.array([0.0, 1e-3, 2e-3]))
+    rec = RollingRecorder(loading, [])
+    for n, (force_at, stiff_at) in enumerate([([], []), ([(2, 1), (4, 0)], []), ([(1, 2)], [(6, 0)])]):
+        f, k = np.zeros(z1.size), np.zeros(z1.size)
+        for ix, iy in force_at:
+            f[ix * 3 + iy] = 1.0
+        for ix, iy in stiff_at:
+            k[ix * 3 + iy] = 1e4
+        rec.store(n, SimpleNamespace(force=f, stiffness=k, newton_iterations=1, krylov_iterations=0, residual=0.0), None)
+    result = rec.result(loading)
+    assert result.contact_extent.tolist() == [[0, 0], [3, 2], [6, 3]]
+    assert result.largest_contact_extent() == ((6, 3), 2)
