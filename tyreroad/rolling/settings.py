@@ -46,7 +46,7 @@ class RollingSettings:
     band_limits : tuple of float
         Lowest and highest 1/3-octave band centres of the force spectrum [Hz] (default 100, 5000).
     contact_window : int
-        Elements along x the contact may span (default 40; the default load's contact spans ~23): the rolling
+        Elements along x the contact may span (default 40; the default load's contact spans 26-30 on the rough strip): the rolling
         kernel's spring-safe correction and stability margin are computed on this window of the strip (every
         contact inside it is covered), and a pass whose contact spans more is refused (``solver.stability``).
     """
