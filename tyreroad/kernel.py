@@ -339,10 +339,10 @@ class LayerKernel:
             return
         if all(int(e) <= int(w) for e, w in zip(extent, self.margin_window)):
             return
+        k_crit = "not stored" if self.critical_stiffness is None else f"{self.critical_stiffness:.4g} N/m"
         what = (f"{self.name}: the contact spans {extent[0]} x {extent[1]} elements{where}, beyond the "
                 f"{self.margin_window[0]} x {self.margin_window[1]} window the kernel's stability margin "
-                f"(k_crit = {self.critical_stiffness:.4g} N/m) was computed on, so the run's stability is not "
-                "certified")
+                f"(k_crit = {k_crit}) was computed on, so the run's stability is not certified")
         if policy == "warn":
             logger.warning("%s; kept (solver.stability: warn)", what)
             return

@@ -66,7 +66,8 @@ class RollingResult:
     contact_extent: np.ndarray | None = None
 
     def largest_contact_extent(self) -> tuple[tuple[int, int], int]:
-        """((x, y) [elements], step): the largest span of the contact along x (then y) over the pass."""
+        """((x, y) [elements], step): the largest spans of the contact along x and along y over the pass (each
+        its own maximum) and the step where the span along x is largest."""
         if self.contact_extent is None or not len(self.contact_extent):
             return (0, 0), 0
         n = int(np.lexsort((self.contact_extent[:, 1], self.contact_extent[:, 0]))[-1])
