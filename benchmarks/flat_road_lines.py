@@ -39,7 +39,7 @@ import os
 import numpy as np
 import xarray as xr
 
-from tyreroad.rolling.dataset import alternation_without_input_lines
+from tyreroad.rolling.dataset import alternation_without_input_lines, input_line_frequencies
 from tyreroad.stability import fs2_alternation
 
 HARMONICS = 8
@@ -66,8 +66,8 @@ def dynamic_lines(path: str) -> str:
     fs = 1.0 / dt
     element = float(ds["element_x"].values[1] - ds["element_x"].values[0])
     rate = float(ds.attrs["speed"]) / element
-    aliased = [abs(((k * rate + 0.5 * fs) % fs) - 0.5 * fs) for k in range(1, HARMONICS + 1)]
-    amps = _fit_lines(force, 2 * np.pi * np.array(aliased) / fs) / mean
+    aliased = input_line_frequencies(rate, fs, HARMONICS)
+    amps = _fit_lines(force, 2 * np.pi * aliased / fs) / mean
     raw = fs2_alternation(force, window=np.ones(force.size, bool))
     removed = alternation_without_input_lines(force, rate, fs)
     lines = " ".join(f"{k + 1}:{f / 1e3:.1f}k {a:.2e}" for k, (f, a) in enumerate(zip(aliased, amps)))

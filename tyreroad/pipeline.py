@@ -261,17 +261,13 @@ def build_greens(material, n_elements: Sequence[int], element_size: float, setti
     if settings.construction == "passive":
         from .construction import correct_greens
 
-        # designed against the patch's own matrices up to the dense limit (20 x 20). A long narrow patch (a
-        # rolling strip, 150 x 20) is designed on its strip bound, as its margin below is evaluated: a 20 x 20
-        # design leaves tread-eta0.5's 150 x 20 strip at k_crit 3.3e4 N/m (its springs reach 6.8e4), and
-        # interlacing cannot carry a margin from a sub-patch to the whole strip. A wide patch (a footprint)
-        # gets the correction of its central 20 x 20 and, from the margin, only the conservative circulant bound
         from .margin import uses_dense_margin, uses_strip_bound
 
-        # designed on the patch whose own matrices the margin below evaluates (every block within the dense
-        # limit, or the strip bound): a design on a sub-patch does not bound the whole patch (interlacing runs the
-        # other way: tread-eta0.5 designed for 1.05e5 N/m on the centre 20 x 20 of 40 x 20 had k_crit 6.1e4 there,
-        # designed on 40 x 20 itself 7.6e4). Only a patch beyond both (a footprint) keeps its centre's design.
+        # designed on the matrices the margin below evaluates (the window's own, every block within the dense
+        # limit; or a long narrow patch's strip bound): a design on a sub-patch does not bound the whole patch
+        # (interlacing runs the other way: tread-eta0.5 designed for 1.05e5 N/m on the centre 20 x 20 of 40 x 20
+        # had k_crit 6.1e4 there, designed on 40 x 20 itself 7.6e4). Only a patch beyond both (a footprint) gets
+        # the correction of its central 20 x 20 and, from the margin, the conservative circulant bound alone.
         strip = uses_strip_bound(check)
         design = check if strip or uses_dense_margin(check) else (min(check[0], 20), min(check[1], 20))
         # the targets in turn on one eigen-solve pass; checked on the margin's whole theta grid (n_dense), so a

@@ -21,7 +21,8 @@ rule rolling_greens:
         n_elements=rolling_greens_elements if ROLLING_SURFACES else [1, 1],
         # the correction and the margin on the contact's window of the strip (rolling.contact_window elements
         # along x): every contact set inside it is covered, and each pass checks that its contact stays inside
-        margin_window=[RollingSettings.from_config(ROLLING_PASS_CFG).contact_window, 10**6],
+        margin_window=[RollingSettings.from_config(ROLLING_PASS_CFG).contact_window,
+                       max_patch_elements(rolling=True)[1]] if ROLLING_SURFACES else None,
         element_size=study_element_size(),
         code=SOURCE["greens"],
     threads: 1
