@@ -233,6 +233,84 @@ def test_swap_blocks_hold_the_smallest_eigenvalue(n):
         assert np.abs(parts[:, None] - whole[None, :]).min(axis=1).max() <= tol
 
 
+@pytest.mark.parametrize("shape", [(10, 10), (11, 9)])
+def test_blocks_smallest_eigenvalue_by_cholesky_equals_every_blocks_eigen_solve(shape):
+    """patch_support's path for blocks above the batched size (one block eigen-solved per phase, the others
+    proven above it by a shifted Cholesky factorisation): the same lambda_min as the whole patch matrix's
+    eigen-solve, on a stack of tables whose smallest block changes from table to table (a guess that is wrong
+    must be caught by the factorisation that fails)."""
+    from tyreroad import construction
+    from tyreroad.symmetry import patch_blocks
+
+    rng = np.random.default_rng(11)
+    tables = np.stack([_even_table(rng, *shape) for _ in range(12)])
+    if shape[0] == shape[1]:
+        tables = tables + np.swapaxes(tables, 1, 2)
+    blocks = patch_blocks(tables, shape)
+    assert max(blocks.sizes) > construction._BATCHED_BLOCK and len(blocks.sizes) > 1
+    phi = np.linspace(-np.pi / 12, np.pi / 2, 8)
+    fast = construction.patch_support(tables, shape, phi)
+    whole = construction.patch_support(tables, shape, phi, symmetry=False)
+    np.testing.assert_allclose(fast, whole, rtol=0, atol=1e-12 * np.abs(tables).max())
+    # which block is smallest really changes along the stack, so the guess is wrong somewhere
+    smallest = set()
+    for k in range(tables.shape[0]):
+        re, im = blocks.blocks(tables[k].real), blocks.blocks(tables[k].imag)
+        smallest.add(int(np.argmin([np.linalg.eigvalsh(b)[0] for b in re])))
+    assert len(smallest) > 1
+
+
+def test_warm_started_lp_equals_a_cold_solve_of_every_row():
+    """The design's cutting-plane LP (one HiGHS model, warm starts, fidelity rows added once violated) against
+    scipy.optimize.linprog of the whole LP, round by round: rows added, phases re-picked, right-hand sides moved
+    (a new target). The same optimum value (1e-9) and taps (1e-6 of their size), and every fidelity row held."""
+    import scipy.optimize
+
+    from tyreroad import construction
+
+    rng = np.random.default_rng(2)
+    n_taps, fs = 24, FS
+    theta = np.linspace(2 * np.pi * 5000 / fs, np.pi, 90)
+    band = np.linspace(0.0, 2 * np.pi * 5000 / fs, 60)
+    e, ef = construction._fir(n_taps, theta), construction._fir(n_taps, band)
+    radius = 0.02 * (1.0 + band)
+    phi = np.linspace(-np.pi / 12, np.pi / 2, 8)
+    h = rng.normal(-0.3, 0.3, (theta.size, phi.size))
+    lp = construction._CuttingPlaneLP(e, ef, radius)
+
+    def cold(rows_on, j, rhs):
+        stab = (np.exp(1j * phi[j])[:, None] * e[rows_on]).real
+        eye, zero = np.eye(n_taps), np.zeros((n_taps, 1))
+        fid = [np.hstack([(np.exp(1j * psi) * ef).real, np.zeros((band.size, n_taps + 1))])
+               for psi in np.arange(8) * np.pi / 4]
+        a = np.vstack([np.hstack([-stab, np.zeros((rows_on.size, n_taps)), np.ones((rows_on.size, 1))])] + fid
+                      + [np.hstack([eye, -eye, zero]), np.hstack([-eye, -eye, zero])])
+        b = np.concatenate([rhs] + [radius] * 8 + [np.zeros(2 * n_taps)])
+        cost = np.r_[np.zeros(n_taps), 1e-3 * np.ones(n_taps), -1.0]
+        res = scipy.optimize.linprog(cost, A_ub=a, b_ub=b, A_eq=np.r_[np.ones(n_taps), np.zeros(n_taps + 1)][None],
+                                     b_eq=[0.0], bounds=[(None, None)] * n_taps + [(0, None)] * n_taps + [(None, 1.0)],
+                                     method="highs")
+        assert res.status == 0
+        return res
+
+    rows_on = np.arange(0, theta.size, 6)
+    j = rng.integers(0, phi.size, theta.size)
+    for step in range(4):
+        allowance = 0.1 * np.cos(phi) * (1.0 + step // 2)  # the third round: a softer target (larger allowance)
+        rhs = h[rows_on, j[rows_on]] + allowance[j[rows_on]]
+        status, _, x = lp.solve(rows_on, j[rows_on], phi, rhs)
+        ref = cold(rows_on, j[rows_on], rhs)
+        assert status == 0
+        cost = np.r_[np.zeros(n_taps), 1e-3 * np.ones(n_taps), -1.0]
+        assert cost @ x == pytest.approx(ref.fun, rel=1e-9, abs=1e-9)
+        np.testing.assert_allclose(x[:n_taps], ref.x[:n_taps], rtol=0, atol=1e-6 * np.abs(ref.x[:n_taps]).max())
+        delta = ef @ x[:n_taps]
+        assert np.all(np.abs(delta) <= radius / math.cos(math.pi / 8) * (1 + 1e-6))
+        rows_on = np.union1d(rows_on, rng.choice(theta.size, 8, replace=False))  # cutting planes
+        j[rng.choice(theta.size, 10, replace=False)] = rng.integers(0, phi.size, 10)  # phases re-picked
+    assert lp.solves > 4  # the fidelity rows were not all passed at first: some joined on violation
+
+
 @pytest.fixture(scope="module")
 def odd_kernel(tread):
     """The 7 x 5 fold kernel (stable at fs/2 on this patch) with an excitation-element FIR that makes it fail
