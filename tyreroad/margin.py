@@ -209,6 +209,17 @@ def _optimise_phase(f, scale: float, n_phi: int = 11, with_phi: bool = False):
         return (p, math.inf, best) if with_phi else (p, math.inf)
     ks = {phi: math.cos(phi) / -v for phi, v in values.items() if v < 0}
     phi_k = max(ks, key=ks.get) if ks else 0.0
+    if ks and math.cos(phi_k) > 0:
+        # k_safe's own best phase: cos phi / -lambda_min peaks elsewhere than lambda_min does (the Brent above
+        # refines p), so it is refined around its own best grid point; any phase's value is a certified bound
+        def spring(phi):
+            v = f(phi)
+            return -math.cos(phi) / -v if v < 0 else -math.inf
+        res = scipy.optimize.minimize_scalar(spring, bounds=(max(phi_k - step, -np.pi / 2), min(phi_k + step,
+                                             np.pi / 2)), method="bounded", options={"xatol": 1e-5 * step})
+        if math.isfinite(res.fun) and -float(res.fun) > ks[phi_k]:
+            phi_k = float(res.x)
+            ks[phi_k] = -float(res.fun)
     k = ks.get(phi_k, 0.0)
     return (p, k, phi_k) if with_phi else (p, k)
 
