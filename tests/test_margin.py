@@ -375,8 +375,12 @@ def test_margin_from_the_designs_eigenvalues_equals_the_margin_from_its_own(trea
     kernel = LayerKernel.from_greens(ds, "dynamic")
     support = corr.margin_support()
     # rows a Cholesky certified instead of an eigen-solve hold lower bounds of the kernel's own eigenvalues
-    theta_s, phi_s, h_s, exact = support
+    theta_s, phi_s, h_s, exact, scale_s = support
     assert exact.any() and (~exact).any()
+    # the corrected tables' entry scale, which spares the margin those points' own tables
+    own_tables = kernel.own_frequency_response(theta_s * FS / (2 * np.pi), SHAPE)
+    own_scale = np.maximum(np.abs(own_tables.real).max(axis=(1, 2)), np.abs(own_tables.imag).max(axis=(1, 2)))
+    np.testing.assert_allclose(scale_s, own_scale, rtol=1e-12)
     tables = kernel.own_frequency_response(theta_s[~exact] * FS / (2 * np.pi), SHAPE)
     own_h = construction.patch_support(tables, SHAPE, phi_s)
     assert np.all(h_s[~exact] <= own_h + 1e-12 * np.abs(own_h).max())
@@ -394,6 +398,11 @@ def test_margin_from_the_designs_eigenvalues_equals_the_margin_from_its_own(trea
     with caplog.at_level(logging.WARNING, logger="tyreroad.margin"):
         wrong = patch_margin(kernel, SHAPE, support=(support[0], support[1], 2.0 * support[2]))
     assert "differs from the kernel's own matrices" in caplog.text
+    assert wrong.k_crit == pytest.approx(own.k_crit, rel=1e-9)
+    caplog.clear()
+    with caplog.at_level(logging.WARNING, logger="tyreroad.margin"):
+        wrong = patch_margin(kernel, SHAPE, support=support[:4] + (1.5 * scale_s,))
+    assert "table scale differs" in caplog.text
     assert wrong.k_crit == pytest.approx(own.k_crit, rel=1e-9)
 
 

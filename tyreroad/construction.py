@@ -57,12 +57,13 @@ from __future__ import annotations
 import functools
 import logging
 import math
+import os
+import sys
 import time
 from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.linalg
-import scipy.optimize
 import xarray as xr
 
 logger = logging.getLogger(__name__)
@@ -195,7 +196,10 @@ def _blocks_lambda_min(pairs, phi: np.ndarray, likeliest: np.ndarray) -> np.ndar
     from .margin import _chol_ok, _herm1
 
     cos, sin = np.cos(phi), np.sin(phi)
-    value = np.array([_lambda_min_on_phases(*pairs[int(likeliest[j])], phi[j:j + 1])[0] for j in range(len(phi))])
+    value = np.empty(len(phi))
+    for j in range(len(phi)):
+        b, c = pairs[int(likeliest[j])]
+        value[j] = _lambda_min_on_phases(b, c, phi[j:j + 1])[0]
     first = likeliest.copy()
     for i, (b, c) in enumerate(pairs):
         rest = np.flatnonzero(first != i)
@@ -432,6 +436,9 @@ class Correction:
     exact : numpy.ndarray or None
         (n_theta,) bool: True where ``support`` is the eigenvalues themselves; False where it is a certified
         lower bound (a Cholesky certificate at one phase, the circulant bound at the others).
+    scale : numpy.ndarray or None
+        (n_theta,) the largest |Re| or |Im| entry of the *corrected* kernel's transfer table, cropped to the
+        patch, at the checked points [m/N] (the margin's tolerance scale there; :func:`tyreroad.margin.patch_margin`).
     shape : (int, int) or None
         The patch designed on.
     """
@@ -458,16 +465,18 @@ class Correction:
     support: np.ndarray | None = field(default=None, repr=False)
     exact: np.ndarray | None = field(default=None, repr=False)
     shape: tuple | None = None
+    scale: np.ndarray | None = field(default=None, repr=False)
 
     def margin_support(self):
-        """(theta [rad], phi [rad], lambda_min Herm(e^{i phi} G_d) [m/N], exact) of the *corrected* kernel on the
-        checked grid (:func:`tyreroad.margin.patch_margin`'s ``support``; ``exact`` False: a certified lower
-        bound), or None without a stored support."""
+        """(theta [rad], phi [rad], lambda_min Herm(e^{i phi} G_d) [m/N], exact, scale [m/N] or None) of the
+        *corrected* kernel on the checked grid (:func:`tyreroad.margin.patch_margin`'s ``support``; ``exact``
+        False: a certified lower bound), or None without a stored support."""
         if self.support is None:
             return None
         delta = _fir(self.taps.size, self.theta) @ self.taps
         exact = np.ones(self.theta.size, dtype=bool) if self.exact is None else self.exact
-        return self.theta, self.phi, self.support + (np.exp(1j * self.phi)[None, :] * delta[:, None]).real, exact
+        return (self.theta, self.phi, self.support + (np.exp(1j * self.phi)[None, :] * delta[:, None]).real, exact,
+                self.scale)
 
     def summary(self) -> str:
         return (f"spring-safe correction: {self.taps.size} taps on the excitation element, sum|c| {self.sum_abs:.3g} m/N "
@@ -479,6 +488,25 @@ class Correction:
 
 def _fir(n_taps: int, theta: np.ndarray) -> np.ndarray:
     return np.exp(-1j * np.outer(theta, np.arange(n_taps)))
+
+
+@functools.lru_cache(maxsize=1)
+def _silence_highs_banner() -> None:
+    """Make the process's first HiGHS model with the C-level stdout on /dev/null: HiGHS prints its version and
+    licence banner to stdout when its first model is made, before any option can be set, and every greens job
+    would print it into the user's terminal. Only that construction is redirected (and only once)."""
+    import highspy
+
+    sys.stdout.flush()
+    saved = os.dup(1)
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    try:
+        os.dup2(devnull, 1)
+        highspy.Highs()
+    finally:
+        os.dup2(saved, 1)
+        os.close(saved)
+        os.close(devnull)
 
 
 class _CuttingPlaneLP:
@@ -516,6 +544,7 @@ class _CuttingPlaneLP:
         self._e = e
         n = e.shape[1]
         self.n_taps = n
+        _silence_highs_banner()
         self._h = highspy.Highs()
         h = self._h
         h.setOptionValue("output_flag", False)
@@ -679,7 +708,10 @@ def design_correction(lags: np.ndarray, tail_compliance=None, weights=(), decays
     # clear the slack by itself (same verdicts and rows as solving every point; a fraction of the eigen-solves)
     checked_tables = tables[sel]
     h = np.full((theta.size, phi.size), np.nan)
-    lower = circulant_lower_bound(checked_tables, shape, phi)
+    # the start rows are eigen-solved before anything reads their bound: it is needed at the other rows only
+    lower = np.full((theta.size, phi.size), -np.inf)
+    later = np.setdiff1d(np.arange(theta.size), start_rows)
+    lower[later] = circulant_lower_bound(checked_tables[later], shape, phi)
 
     def solve(rows):
         rows = rows[np.isnan(h[rows, 0])]
@@ -819,6 +851,12 @@ def design_correction(lags: np.ndarray, tail_compliance=None, weights=(), decays
     # circulant bound at the other phases); the reported grid minima are over the exact rows alone
     solved = ~np.isnan(h[:, 0])
     kept = solved | raised
+    # the corrected kernel's entry scale at the kept points, on the patch's crop (the margin's tolerance there)
+    crop = _crop(checked_tables[kept], shape, False).copy()
+    ccx, ccy = (crop.shape[1] - 1) // 2, (crop.shape[2] - 1) // 2
+    crop[:, ccx, ccy] += _fir(taps.size, theta[kept]) @ taps
+    scale = np.maximum(np.abs(crop.real).max(axis=(1, 2)), np.abs(crop.imag).max(axis=(1, 2)))
+    del crop
     theta, support, exact = theta[kept], known(h)[kept], solved[kept]
     e = _fir(taps.size, theta[exact])
     base_p, _ = best(support[exact], np.zeros(e.shape[0]))
@@ -832,7 +870,7 @@ def design_correction(lags: np.ndarray, tail_compliance=None, weights=(), decays
         slack=slack, base_min_p=float(base_p.min()), min_p=float(p[i]), theta_min=float(theta[exact][i]),
         lp_rounds=rounds, n_theta=int(sel.size), n_phi=int(n_phi), seconds=time.perf_counter() - t0,
         band=float(band), notes=notes, theta=theta, phi=phi, support=support, exact=exact,
-        shape=tuple(int(v) for v in shape),
+        shape=tuple(int(v) for v in shape), scale=scale,
     )
     logger.info("%s", corr.summary())
     for note in notes:

@@ -352,10 +352,12 @@ def patch_margin(kernel: LayerKernel, shape, n_theta: int = 1025, chunk: int = 6
     max_dense : int
         Largest matrix (a block, or the patch matrix without ``symmetry``) factored densely; a patch whose
         largest one is bigger keeps the circulant bound alone.
-    support : (theta, phi, h[, exact]), optional
+    support : (theta, phi, h[, exact[, scale]]), optional
         lambda_min Herm(e^{i phi} G_d) of this kernel on this patch already computed (the correction's design,
         :meth:`tyreroad.construction.Correction.margin_support`: theta (n,), phi (m,), h (n, m) [m/N]; rows
-        with ``exact`` (n,) False hold certified lower bounds of it instead). At grid points it covers, p > 0
+        with ``exact`` (n,) False hold certified lower bounds of it instead; ``scale`` (n,) [m/N]: the largest
+        |Re| or |Im| entry of each point's cropped transfer table, so that a point certified from the support
+        needs no table of its own). At grid points it covers, p > 0
         is certified where max_phi h > tol and otherwise k_safe >= max_phi cos phi / (tol - h) replaces the
         Cholesky ladder (the same certificate from the eigenvalues, or from their lower bounds);
         it is spot-checked against this kernel's own matrices first and ignored if it does not match (a long
@@ -388,25 +390,30 @@ def patch_margin(kernel: LayerKernel, shape, n_theta: int = 1025, chunk: int = 6
         return out
     if blocks is None:
         ix, iy = offset_matrix_index(shape)
-    known = {}
+    known, known_scale = {}, {}
     if support is not None and todo.size:
-        known = _support_rows(kernel, shape, theta, todo, support, blocks)
+        known = _support_rows(kernel, shape, theta, todo, support, blocks, scales=known_scale)
     certified = full = reused = 0
     rung, pending = {}, {}
     ladder_phi = math.pi / 4
     phi = math.pi / 2  # a lossy layer's compliance is certified by its dissipation, phi = +pi/2
     for start in range(0, todo.size, chunk):
         idx = todo[start:start + chunk]
-        tables = kernel.own_frequency_response(theta[idx] * fs / (2 * np.pi), shape)
-        use_blocks = blocks is not None and fits(blocks, tables)
-        if use_blocks:
-            re_tables, im_tables = np.ascontiguousarray(tables.real), np.ascontiguousarray(tables.imag)
-        elif blocks is not None:  # not even after all (a kernel the probe did not show): the patch matrices
-            logger.warning("stability margin %s: transfer tables not even in dx, dy; whole patch matrices",
-                           kernel.name)
-            ix, iy = offset_matrix_index(shape)
-        for j, i in enumerate(idx):
-            scale = _entry_scale(tables[j])
+        # a point the support covers with its scale needs no transfer table unless its bound is not enough
+        fresh = np.array([i for i in idx if not (i in known and i in known_scale)], dtype=int)
+        row = {int(i): j for j, i in enumerate(fresh)}
+        if fresh.size:
+            tables = kernel.own_frequency_response(theta[fresh] * fs / (2 * np.pi), shape)
+            use_blocks = blocks is not None and fits(blocks, tables)
+            if use_blocks:
+                re_tables, im_tables = np.ascontiguousarray(tables.real), np.ascontiguousarray(tables.imag)
+            elif blocks is not None:  # not even after all (a kernel the probe did not show): the patch matrices
+                logger.warning("stability margin %s: transfer tables not even in dx, dy; whole patch matrices",
+                               kernel.name)
+                ix, iy = offset_matrix_index(shape)
+        for i in idx:
+            j = row.get(int(i))
+            scale = known_scale[i] if j is None else _entry_scale(tables[j])
             tol = MARGIN_TOLERANCE * scale
             if i in known:  # lambda_min on a phase grid already known: certified, or a lower bound of k_safe
                 reused += 1
@@ -416,7 +423,7 @@ def patch_margin(kernel: LayerKernel, shape, n_theta: int = 1025, chunk: int = 6
                     certified += 1
                 else:
                     rung[i] = lb
-                    pending[i] = (tables[j].copy(), use_blocks, scale)
+                    pending[i] = (None if j is None else tables[j].copy(), None, scale)
                 continue
             if use_blocks:
                 b, c = blocks.blocks(re_tables[j]), blocks.blocks(im_tables[j])
@@ -435,15 +442,23 @@ def patch_margin(kernel: LayerKernel, shape, n_theta: int = 1025, chunk: int = 6
                 # p <= 0 here: certify k_safe >= K on a ladder (Re G_d + I / K > 0 at phi = 0), bisected
                 rung[i] = max(_ladder(b, c, trial, tol) for trial in dict.fromkeys((ladder_phi, 0.0)))
                 pending[i] = (b, c, scale)
-    for i, item in pending.items():  # the reused points' matrices, for the branch and bound below
-        if len(item) == 3 and isinstance(item[1], bool):
-            table, as_blocks, scale = item
-            if as_blocks:
-                pending[i] = (blocks.blocks(np.ascontiguousarray(table.real)),
-                              blocks.blocks(np.ascontiguousarray(table.imag)), scale)
-            else:
-                a = table[offset_matrix_index(shape)]
-                pending[i] = ([a.real.copy()], [a.imag.copy()], scale)
+
+    def matrices(i):
+        """A pending point's (b, c, scale); a point reused from the support gets its blocks (and, if its bound
+        came with the support's scale, its table) only here, when the branch and bound needs it: most points'
+        bounds already clear the smallest k_safe found."""
+        item = pending[i]
+        if item[1] is not None:
+            return item
+        table, _, scale = item
+        if table is None:
+            table = kernel.own_frequency_response(theta[i:i + 1] * fs / (2 * np.pi), shape)[0]
+        if blocks is not None and fits(blocks, table):
+            return (blocks.blocks(np.ascontiguousarray(table.real)), blocks.blocks(np.ascontiguousarray(table.imag)),
+                    scale)
+        a = table[offset_matrix_index(shape)]
+        return [a.real.copy()], [a.imag.copy()], scale
+
     # full solves only where the ladder cannot exclude a spring below the smallest one found (branch and bound);
     # before one, a Cholesky at the smallest k_safe found (at the phases of the last full solve and 0) may
     # already certify k_safe >= it there
@@ -454,7 +469,7 @@ def patch_margin(kernel: LayerKernel, shape, n_theta: int = 1025, chunk: int = 6
         if rung[i] >= best:
             k_safe[i] = rung[i]  # a certified lower bound, not smaller than k_crit
             continue
-        b, c, scale = pending[i]
+        b, c, scale = matrices(i)
         tol = MARGIN_TOLERANCE * scale
         if math.isfinite(best) and any(_shifted_pd(b, c, trial, math.cos(trial) / best - tol)
                                        for trial in dict.fromkeys((best_phi, ladder_phi, 0.0) + SCREEN_PHASES)):
@@ -485,13 +500,16 @@ def _support_bound(h_row: tuple, tol: float) -> float:
     return float(np.max(cos[ok] / (tol - values[ok]))) if ok.any() else 0.0
 
 
-def _support_rows(kernel, shape, theta, todo, support, blocks, checks: int = 3, strip: bool = False) -> dict:
+def _support_rows(kernel, shape, theta, todo, support, blocks, checks: int = 3, strip: bool = False,
+                  scales: dict | None = None) -> dict:
     """{grid index: (phi, lambda_min or a certified lower bound of it)} of the support's rows on the margin's theta
     grid (matched to 1e-12 rad), after checking ``checks`` of its exact rows against eigen-solves of this kernel's
     own matrices (``strip``: of its strip bound's) ({} if one differs by more than 1e-3 MARGIN_TOLERANCE of the matrix scale: the certificates keep
-    MARGIN_TOLERANCE in hand)."""
+    MARGIN_TOLERANCE in hand). ``scales``: filled with {grid index: the table's entry scale} when the support
+    carries one (its fifth item, checked at the same rows to 1e-9), so that those rows need no transfer table."""
     s_theta, s_phi, s_h = (np.asarray(v, dtype=float) for v in support[:3])
     s_exact = np.asarray(support[3], dtype=bool) if len(support) > 3 else np.ones(s_theta.size, dtype=bool)
+    s_scale = np.asarray(support[4], dtype=float) if len(support) > 4 and support[4] is not None else None
     pos = np.clip(np.searchsorted(s_theta, theta[todo]), 0, s_theta.size - 1)
     prev = np.clip(pos - 1, 0, s_theta.size - 1)
     pos = np.where(np.abs(s_theta[prev] - theta[todo]) < np.abs(s_theta[pos] - theta[todo]), prev, pos)
@@ -521,4 +539,11 @@ def _support_rows(kernel, shape, theta, todo, support, blocks, checks: int = 3, 
                                "theta = %.4f pi (%.3e against %.3e m/N): not used", kernel.name, theta[i] / np.pi,
                                s_h[rows[i], j], own)
                 return {}
+        if s_scale is not None and abs(s_scale[rows[i]] - scale) > 1e-9 * scale:
+            logger.warning("stability margin %s: the given support's table scale differs from the kernel's at theta "
+                           "= %.4f pi (%.6e against %.6e m/N): not used", kernel.name, theta[i] / np.pi,
+                           s_scale[rows[i]], scale)
+            return {}
+    if scales is not None and s_scale is not None:
+        scales.update({i: float(s_scale[r]) for i, r in rows.items()})
     return {i: (s_phi, s_h[r]) for i, r in rows.items()}
