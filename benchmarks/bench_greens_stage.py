@@ -11,7 +11,10 @@ Set OPENBLAS_NUM_THREADS=1 (the rule runs with threads: 1). To compare with an o
 into that tree's benchmarks/ and run it there: it imports the package of the tree it sits in.
 
     OPENBLAS_NUM_THREADS=1 python benchmarks/bench_greens_stage.py [--materials tread tread-eta0.5]
-        [--repeats 3] [--shape 20 20] [--springs DIR]
+        [--repeats 3] [--shape 20 20] [--springs DIR] [--against fold|none]
+
+``--against`` times another construction (default ``fold``, today's kernel) in the same run, interleaved with the
+default one, and prints the ratio of the medians (issue 23 asks <= 2x).
 
 Never fails on timing; prints figures.
 """
@@ -76,10 +79,14 @@ def stiffest_spring(springs_dir: Path, material: str) -> float:
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--materials", nargs="+", default=["tread", "tread-eta0.5", "tread-eta0.5-a0"])
+    parser.add_argument("--materials", nargs="+", default=["tread", "tread-eta0.5", "tread-eta1.5", "tread-rho0.5",
+                                                            "tread-rho2"])
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--shape", nargs=2, type=int, default=[20, 20])
     parser.add_argument("--springs", type=Path, default=Path("/work/main/results/springs/iso10844"))
+    parser.add_argument("--against", default="fold",
+                        help="construction timed in the same run, interleaved, for the ratio (issue 23: <= 2x "
+                             "today's `fold`); 'none' to skip")
     args = parser.parse_args(argv)
     config = load_config(ROOT / "config" / "config.yaml")
     collect = _Collect()
@@ -89,8 +96,13 @@ def main(argv=None):
     with tempfile.TemporaryDirectory() as tmp:
         for material in args.materials:
             mcfg = pipeline.resolved_material_config(material, config["materials"])
-            times, parts = [], []
+            times, parts, others = [], [], []
+            other = {**config["greens"], "construction": args.against}
             for r in range(args.repeats):
+                if args.against != "none":  # interleaved, so that both see the same machine
+                    t0 = time.perf_counter()
+                    pipeline.run_greens(material, mcfg, other, args.shape, 1e-3, Path(tmp) / f"{material}-o{r}.nc")
+                    others.append(time.perf_counter() - t0)
                 collect.lines.clear()
                 out = Path(tmp) / f"{material}-{r}.nc"
                 t0 = time.perf_counter()
@@ -107,6 +119,10 @@ def main(argv=None):
             print(f"{material:18s} stage median {statistics.median(times):7.2f} s  (runs "
                   + ", ".join(f"{t:.2f}" for t in times) + ")  phases median: "
                   + ", ".join(f"{k} {v:.2f} s" for k, v in med.items()))
+            if others:
+                ratio = statistics.median(times) / statistics.median(others)
+                print(f"{'':18s} {args.against} stage median {statistics.median(others):7.2f} s  (runs "
+                      + ", ".join(f"{t:.2f}" for t in others) + f"); ratio {ratio:.2f}")
             print(f"{'':18s} k_crit {k_crit:.4g} N/m at theta {theta / math.pi:.4f} pi ({method}); design "
                   f"k_target {target:.3g} N/m; stiffest spring {spring:.4g} N/m; k_crit / spring "
                   f"{k_crit / spring:.3f} (issue 23 asks >= 1.5)")
