@@ -196,7 +196,7 @@ def _blocks_lambda_min(pairs, phi: np.ndarray, likeliest: np.ndarray) -> np.ndar
     factorisation fails. The minimum is an eigen-solved one either way (20 x 20 tread design: 3x fewer flops
     than solving all five blocks).
     """
-    from .margin import _chol_ok, _herm1
+    from .margin import _shifted_pd
 
     cos, sin = np.cos(phi), np.sin(phi)
     value = np.empty(len(phi))
@@ -216,13 +216,12 @@ def _blocks_lambda_min(pairs, phi: np.ndarray, likeliest: np.ndarray) -> np.ndar
         except np.linalg.LinAlgError:
             pass
         for j in rest:  # some phase is not: find which, and eigen-solve the block there
-            m = _herm1(b, c, float(phi[j]))
-            m.flat[:: m.shape[0] + 1] -= value[j]
-            if not _chol_ok(m):  # below the value (or equal to rounding): this block's own eigenvalue decides
+            if not _shifted_pd([b], [c], float(phi[j]), -value[j]):  # below the value (or equal to rounding)
                 v = _lambda_min_on_phases(b, c, phi[j:j + 1])[0]
                 if v < value[j]:
                     value[j], likeliest[j] = v, i
     return value
+
 
 def _crop(tables: np.ndarray, shape, strip: bool) -> np.ndarray:
     """The (n, 2 nx - 1, 2 ny - 1) centre of a stack of offset tables; for the strip bound, checked even in dx
@@ -854,11 +853,14 @@ def design_correction(lags: np.ndarray, tail_compliance=None, weights=(), decays
     # circulant bound at the other phases); the reported grid minima are over the exact rows alone
     solved = ~np.isnan(h[:, 0])
     kept = solved | raised
-    # the corrected kernel's entry scale at the kept points, on the patch's crop (the margin's tolerance there)
+    # the corrected kernel's entry scale at the kept points, on the patch's crop (the margin's tolerance there;
+    # not `scale`, the LP's, which attempt() reads)
+    from .margin import _entry_scale
+
     crop = _crop(checked_tables[kept], shape, False).copy()
     ccx, ccy = (crop.shape[1] - 1) // 2, (crop.shape[2] - 1) // 2
     crop[:, ccx, ccy] += _fir(taps.size, theta[kept]) @ taps
-    scale = np.maximum(np.abs(crop.real).max(axis=(1, 2)), np.abs(crop.imag).max(axis=(1, 2)))
+    entry_scale = _entry_scale(crop)
     del crop
     theta, support, exact = theta[kept], known(h)[kept], solved[kept]
     e = _fir(taps.size, theta[exact])
@@ -873,7 +875,7 @@ def design_correction(lags: np.ndarray, tail_compliance=None, weights=(), decays
         slack=slack, base_min_p=float(base_p.min()), min_p=float(p[i]), theta_min=float(theta[exact][i]),
         lp_rounds=rounds, n_theta=int(sel.size), n_phi=int(n_phi), seconds=time.perf_counter() - t0,
         band=float(band), notes=notes, theta=theta, phi=phi, support=support, exact=exact,
-        shape=tuple(int(v) for v in shape), scale=scale,
+        shape=tuple(int(v) for v in shape), scale=entry_scale,
     )
     logger.info("%s", corr.summary())
     for note in notes:

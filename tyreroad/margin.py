@@ -143,10 +143,13 @@ class PatchMargin:
                    ds["critical_stiffness"].attrs.get("method", "patch"), name=str(ds.attrs.get("material", "kernel")))
 
 
-def _entry_scale(table: np.ndarray) -> float:
-    """The largest |entry| of Re / Im of a cropped transfer table [m/N]: every offset of it is an entry of the
-    patch matrix, so MARGIN_TOLERANCE times this is the rounding level of its eigenvalues."""
-    return max(float(np.abs(table.real).max()), float(np.abs(table.imag).max()))
+def _entry_scale(table: np.ndarray):
+    """The largest |entry| of Re / Im of a cropped transfer table [m/N] (a float), or of each table of a stack
+    (..., X, Y) (an array): every offset of it is an entry of the patch matrix, so MARGIN_TOLERANCE times this
+    is the rounding level of its eigenvalues."""
+    t = np.asarray(table)
+    out = np.maximum(np.abs(t.real).max(axis=(-2, -1)), np.abs(t.imag).max(axis=(-2, -1)))
+    return float(out) if out.ndim == 0 else out
 
 
 def _chol_ok(matrix: np.ndarray) -> bool:
@@ -400,7 +403,7 @@ def patch_margin(kernel: LayerKernel, shape, n_theta: int = 1025, chunk: int = 6
     for start in range(0, todo.size, chunk):
         idx = todo[start:start + chunk]
         # a point the support covers with its scale needs no transfer table unless its bound is not enough
-        fresh = np.array([i for i in idx if not (i in known and i in known_scale)], dtype=int)
+        fresh = np.array([i for i in idx if i not in known_scale], dtype=int)  # its keys are known's, or none
         row = {int(i): j for j, i in enumerate(fresh)}
         if fresh.size:
             tables = kernel.own_frequency_response(theta[fresh] * fs / (2 * np.pi), shape)
