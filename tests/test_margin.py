@@ -56,6 +56,26 @@ def test_circulant_bound_is_below_the_patch_eigenvalue_everywhere(fold_kernel):
     assert bound.p_bound[-1] <= lam_pi and bound.p_bound[-1] > 3 * lam_pi
 
 
+@pytest.mark.parametrize("name", ["tread-rho0.5", "tread-rho2"])
+def test_rounding_does_not_certify_the_real_symbol_at_fs2(name):
+    """At theta = pi the kernel's symbol G_d(-1) is real: its imaginary part is rounding (~1e-20 m/N), and the
+    circulant bound at phi = +-pi/2 read a positive rounding as p > 0 (these fold kernels on 6 x 6, and tread-rho2
+    on 20 x 20, were stored stable for every spring). With G_d(-1) indefinite, uniform springs of
+    -1 / lambda_min(G_d(-1)) put a root at z = -1: the circulant bound must not certify theta = pi, and the
+    margin there must be that spring (1e-6)."""
+    material = material_from_config(name, load_config(ROOT / "config" / "config.yaml")["materials"])
+    kernel = LayerKernel.from_greens(greens_dataset(material, SHAPE, 1e-3, FS, 256, 4096, construction="fold"),
+                                     "dynamic")
+    k_pi, lam_pi = nyquist_critical_stiffness(kernel, SHAPE)
+    assert lam_pi < 0 and math.isfinite(k_pi)
+    bound = circulant_margin(kernel, SHAPE, n_theta=1025)
+    assert bound.theta[-1] == math.pi
+    assert bound.k_bound[-1] <= k_pi * (1 + 1e-9)
+    margin = patch_margin(kernel, SHAPE)
+    assert margin.k_safe[-1] == pytest.approx(k_pi, rel=1e-6)
+    assert margin.k_crit <= k_pi * (1 + 1e-6)
+
+
 def test_patch_margin_equals_the_eigen_solve_reference(fold_kernel):
     """patch_margin (bound + Cholesky certification + full solves where needed) against
     tyreroad.cq.stability_margin (eigen-solves everywhere, phase optimised): the same k_crit, at the

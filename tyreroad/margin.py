@@ -49,15 +49,13 @@ import scipy.linalg
 from .influence import offset_matrix_index
 from .kernel import LayerKernel
 from .solver import FFT_THRESHOLD
-from .stability import circulant_margin, mask_bands
+from .stability import MARGIN_TOLERANCE, circulant_margin, mask_bands
 from .symmetry import fits, patch_blocks, strip_lambda_min, strip_symbol_blocks
 
 logger = logging.getLogger(__name__)
 
 __all__ = ["PatchMargin", "patch_margin", "uses_dense_margin", "uses_strip_bound", "STRIP_MAX_WIDTH"]
 
-#: Relative level (of the largest |entry| of G_d) below which p counts as zero.
-MARGIN_TOLERANCE = 1e-9
 
 
 class PatchMargin:
@@ -375,7 +373,7 @@ def patch_margin(kernel: LayerKernel, shape, n_theta: int = 1025, chunk: int = 6
     bound = circulant_margin(kernel, shape, n_theta=n_theta)
     theta = bound.theta
     k_safe = bound.k_bound.copy()
-    todo = np.flatnonzero(~(bound.p_bound > 0))
+    todo = np.flatnonzero(np.isfinite(bound.k_bound))  # not certified by the bound (p at rounding level too)
     fs = kernel.sample_rate
     blocks = None
     if symmetry and todo.size:

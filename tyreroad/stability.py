@@ -37,6 +37,12 @@ from .influence import OffsetInfluence
 from .kernel import LayerKernel
 from .solver import FFT_THRESHOLD
 
+#: Relative level (of the largest |entry| of G_d) below which a margin p counts as zero: G_d(1) and G_d(-1) are
+#: real, so their symbols' imaginary parts are rounding (~1e-20 m/N), whose sign must not certify p > 0 at
+#: phi = +-pi/2 (it did: the fold kernel of tread-rho2 on 20 x 20 was stored stable for every spring, with
+#: lambda_min G_d(-1) = -2.96e-5 m/N, a root at z = -1 for uniform springs of 3.38e4 N/m).
+MARGIN_TOLERANCE = 1e-9
+
 logger = logging.getLogger(__name__)
 
 __all__ = ["nyquist_table", "nyquist_critical_stiffness", "fs2_alternation", "StabilityRecord", "stability_record"]
@@ -222,7 +228,8 @@ class CirculantMargin:
     p_bound : numpy.ndarray
         The lower bound of p(theta) [m/N].
     k_bound : numpy.ndarray
-        The lower bound of the spring at which a root reaches |z| = 1 at theta [N/m] (inf where p_bound > 0).
+        The lower bound of the spring at which a root reaches |z| = 1 at theta [N/m] (inf where p_bound is
+        above the rounding level, :data:`MARGIN_TOLERANCE` times the largest |G^| at that theta: certified).
     """
 
     def __init__(self, theta, p_bound, k_bound, name: str = "kernel"):
@@ -247,8 +254,8 @@ class CirculantMargin:
         return float(self.theta[int(np.argmin(self.k_bound))]) if math.isfinite(self.k_crit) else math.nan
 
     def failing_bands(self) -> list[tuple[float, float]]:
-        """theta intervals [rad] where p_bound <= 0."""
-        return mask_bands(self.theta, ~(self.p_bound > 0))
+        """theta intervals [rad] where p > 0 is not certified (p_bound at or below the rounding level)."""
+        return mask_bands(self.theta, np.isfinite(self.k_bound))
 
     def describe(self) -> str:
         if math.isfinite(self.k_crit):
@@ -315,6 +322,7 @@ def circulant_margin(kernel: LayerKernel, shape, n_theta: int = 8193, n_phi: int
     rot = np.exp(1j * phis)
     lags = np.arange(g.shape[2])
     m = np.empty((phis.size, theta.size))
+    scale = np.empty(theta.size)  # max |G^| per theta: the rounding level of its DFT values (>= every entry)
     for start in range(0, theta.size, chunk):
         t = theta[start:start + chunk]
         sym = spectra @ np.exp(-1j * np.outer(lags, t))  # (K, n_t)
@@ -323,10 +331,11 @@ def circulant_margin(kernel: LayerKernel, shape, n_theta: int = 8193, n_phi: int
             tail = kernel.memory.frequency_response(t * kernel.sample_rate / (2 * np.pi), kernel.sample_rate)
             tail = tail[:, cx - (nx - 1): cx + nx, cy - (ny - 1): cy + ny]
             sym = sym + np.fft.fft2(np.fft.ifftshift(tail, axes=(1, 2)), axes=(1, 2)).reshape(t.size, -1).T
+        scale[start:start + t.size] = np.abs(sym).max(axis=0)
         for j, r in enumerate(rot):
             m[j, start:start + t.size] = (r * sym).real.min(axis=0)
     p_bound = m.max(axis=0)
     with np.errstate(divide="ignore"):
         k_phi = np.where(m < 0, np.cos(phis)[:, None] / np.maximum(-m, 1e-300), 0.0)
-    k_bound = np.where(p_bound > 0, np.inf, k_phi.max(axis=0))
+    k_bound = np.where(p_bound > MARGIN_TOLERANCE * scale, np.inf, k_phi.max(axis=0))
     return CirculantMargin(theta, p_bound, k_bound, kernel.name)
