@@ -608,7 +608,17 @@ class _CuttingPlaneLP:
         upper = np.array([wanted.get(key, self._inf) for key in self._rows])
         self._h.changeRowsBounds(index.size, index, np.full(index.size, -self._inf), upper)
         while True:
+            cold = self.solves == 0
+            if cold:
+                # from scratch the primal simplex without presolve is faster on these dense LPs (measured cold:
+                # 256 taps 1.37 s against the dual's 2.39 s, 128 taps 0.14 against 0.19 s); after that each solve
+                # starts from the last basis, which added rows and moved bounds leave dual feasible: dual simplex
+                self._h.setOptionValue("simplex_strategy", 4)
+                self._h.setOptionValue("presolve", "off")
             self._h.run()
+            if cold:
+                self._h.setOptionValue("simplex_strategy", 1)
+                self._h.setOptionValue("presolve", "choose")
             self.solves += 1
             status = self._h.getModelStatus()
             if status != highspy.HighsModelStatus.kOptimal:
