@@ -391,9 +391,9 @@ def patch_margin(kernel: LayerKernel, shape, n_theta: int = 1025, chunk: int = 6
         return out
     if blocks is None:
         ix, iy = offset_matrix_index(shape)
-    known, known_scale = {}, {}
+    known, known_scale, known_exact = {}, {}, set()
     if support is not None and todo.size:
-        known = _support_rows(kernel, shape, theta, todo, support, blocks, scales=known_scale)
+        known = _support_rows(kernel, shape, theta, todo, support, blocks, scales=known_scale, exact=known_exact)
     certified = full = reused = 0
     rung, pending = {}, {}
     ladder_phi = math.pi / 4
@@ -466,7 +466,14 @@ def patch_margin(kernel: LayerKernel, shape, n_theta: int = 1025, chunk: int = 6
     best = math.inf
     best_phi = 0.0
     screened = 0
-    for i in sorted(pending, key=lambda j: rung[j]):
+    order = sorted(pending, key=lambda j: rung[j])
+    # the first full solve sets the bar the others are screened against: at the smallest rung among the points
+    # whose rung comes from eigenvalues (the support's exact rows: the grid phases' bound, close to k_safe), not
+    # among all. A support row the design certified by a Cholesky factorisation at its target has a rung near the
+    # target wherever k_safe is (tread-eta1.5: rungs 1.20-1.22e5 N/m where k_safe is 2.0-2.8e5): solved first, they
+    # set a high bar that the next ones fail too (17 full solves before k_crit = 1.245e5 at theta = pi, 2 after)
+    first = [j for j in order if j in known_exact][:1]
+    for i in first + [j for j in order if j not in first]:
         if rung[i] >= best:
             k_safe[i] = rung[i]  # a certified lower bound, not smaller than k_crit
             continue
@@ -502,12 +509,13 @@ def _support_bound(h_row: tuple, tol: float) -> float:
 
 
 def _support_rows(kernel, shape, theta, todo, support, blocks, checks: int = 3, strip: bool = False,
-                  scales: dict | None = None) -> dict:
+                  scales: dict | None = None, exact: set | None = None) -> dict:
     """{grid index: (phi, lambda_min or a certified lower bound of it)} of the support's rows on the margin's theta
     grid (matched to 1e-12 rad), after checking ``checks`` of its exact rows against eigen-solves of this kernel's
     own matrices (``strip``: of its strip bound's) ({} if one differs by more than 1e-3 MARGIN_TOLERANCE of the matrix scale: the certificates keep
     MARGIN_TOLERANCE in hand). ``scales``: filled with {grid index: the table's entry scale} when the support
-    carries one (its fifth item, checked at the same rows to 1e-9), so that those rows need no transfer table."""
+    carries one (its fifth item, checked at the same rows to 1e-9), so that those rows need no transfer table;
+    ``exact``: filled with the grid indices whose row holds eigenvalues (not lower bounds)."""
     s_theta, s_phi, s_h = (np.asarray(v, dtype=float) for v in support[:3])
     s_exact = np.asarray(support[3], dtype=bool) if len(support) > 3 else np.ones(s_theta.size, dtype=bool)
     s_scale = np.asarray(support[4], dtype=float) if len(support) > 4 and support[4] is not None else None
@@ -547,4 +555,6 @@ def _support_rows(kernel, shape, theta, todo, support, blocks, checks: int = 3, 
             return {}
     if scales is not None and s_scale is not None:
         scales.update({i: float(s_scale[r]) for i, r in rows.items()})
+    if exact is not None:
+        exact.update(i for i, r in rows.items() if s_exact[r])
     return {i: (s_phi, s_h[r]) for i, r in rows.items()}
