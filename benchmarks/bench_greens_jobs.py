@@ -4,7 +4,8 @@
 Each job runs through ``snakemake`` (the rule's script in its own Python process, imports and file writing
 included) into a temporary results directory, the two constructions interleaved, ``--repeats`` times; the
 wall time is the job's own Snakemake benchmark record (``benchmarks/greens/<material>.tsv``, column ``s``),
-which leaves out Snakemake's planning. Prints per material the medians, the individual runs and their ratio.
+which leaves out Snakemake's planning. Prints per material the medians, the individual runs and their ratio,
+and the stage's (the sum over the materials' jobs).
 `bench_greens_stage.py` times the stage in-process (no interpreter start-up), the stricter ratio.
 
     OPENBLAS_NUM_THREADS=1 python benchmarks/bench_greens_jobs.py [--materials tread tread-eta0.5]
@@ -56,7 +57,7 @@ def main(argv=None):
     args = parser.parse_args(argv)
     greens = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())["greens"]
     print(f"tree {ROOT}; greens {greens}; {args.repeats} runs per construction, interleaved")
-    ratios = []
+    ratios, totals = [], {"fold": 0.0, "passive": 0.0}
     with tempfile.TemporaryDirectory() as tmp:
         for material in args.materials:
             times = {"fold": [], "passive": []}
@@ -65,10 +66,15 @@ def main(argv=None):
                     times[construction].append(run_job(Path(tmp), construction, material, greens))
             med = {c: statistics.median(v) for c, v in times.items()}
             ratios.append(med["passive"] / med["fold"])
+            for c in totals:
+                totals[c] += med[c]
             print(f"{material:14s} passive {med['passive']:6.2f} s ("
                   + ", ".join(f"{v:.2f}" for v in times["passive"]) + f")  fold {med['fold']:6.2f} s ("
                   + ", ".join(f"{v:.2f}" for v in times["fold"]) + f")  ratio {ratios[-1]:.2f}", flush=True)
     print(f"ratio over the materials: median {statistics.median(ratios):.2f}, largest {max(ratios):.2f}")
+    # the stage as the study runs it: one greens job per material, so its cost is their sum
+    print(f"the stage (these materials' jobs together, sums of the medians): passive {totals['passive']:.2f} s, fold "
+          f"{totals['fold']:.2f} s, ratio {totals['passive'] / totals['fold']:.2f}")
 
 
 if __name__ == "__main__":
