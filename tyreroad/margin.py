@@ -57,7 +57,6 @@ logger = logging.getLogger(__name__)
 __all__ = ["PatchMargin", "patch_margin", "uses_dense_margin", "uses_strip_bound", "STRIP_MAX_WIDTH"]
 
 
-
 class PatchMargin:
     """The stability margin a greens file stores (see the module docstring).
 
