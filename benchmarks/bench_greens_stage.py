@@ -5,7 +5,7 @@ config/config.yaml, the largest study patch 20 x 20, 1 mm elements) ``--repeats`
 temporary directory, and prints per material: the median and the individual wall times, the stage's phases
 (from its log: element FRF, correction design, margin), k_crit (``critical_stiffness``) with its theta and
 method, the stiffest element spring of the material's springs file (``--springs``, default
-/work/main/results/springs/iso10844; blank when absent) and k_crit over it (issue 23 asks >= 1.5).
+results/springs/iso10844 of this tree, as the study writes it; NaN when absent) and k_crit over it (issue 23 asks >= 1.5).
 
 Set OPENBLAS_NUM_THREADS=1 (the rule runs with threads: 1). To compare with an older tree, copy this script
 into that tree's benchmarks/ and run it there: it imports the package of the tree it sits in.
@@ -83,7 +83,7 @@ def main(argv=None):
                                                             "tread-rho2"])
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--shape", nargs=2, type=int, default=[20, 20])
-    parser.add_argument("--springs", type=Path, default=Path("/work/main/results/springs/iso10844"))
+    parser.add_argument("--springs", type=Path, default=ROOT / "results" / "springs" / "iso10844")
     parser.add_argument("--against", default="fold",
                         help="construction timed in the same run, interleaved, for the ratio (issue 23: <= 2x "
                              "today's `fold`); 'none' to skip")
