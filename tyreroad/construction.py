@@ -41,9 +41,10 @@ factorisation at one phase (:func:`patch_certify`), proves the slack, and the pr
 a lower bound. At a row, one block per phase is eigen-solved (the one smallest at the previous row) and the
 others are proven above it by a Cholesky factorisation (:func:`_blocks_lambda_min`). The LP is one HiGHS model
 (``highspy``) kept across its cutting-plane rounds, targets and phase re-picks, each solve starting from the
-last optimal basis, with the fidelity rows added once a solution violates them (:class:`_CuttingPlaneLP`). The correction is the same identity
-shift on every patch, so taps designed on a 20 x 20 patch may be applied to a larger one (measured tread,
-k(fs/2) of the 20 x 20 taps: 1.24e5 N/m on 20 x 20, 1.06e5 on 40 x 40; today's 2.37e4 / 2.29e4).
+last optimal basis, with the fidelity rows added once a solution violates them (:class:`_CuttingPlaneLP`).
+The correction is the same identity shift on every patch, so taps designed on a 20 x 20 patch may be applied
+to a larger one (measured tread, k(fs/2) of the 20 x 20 taps: 1.24e5 N/m on 20 x 20, 1.06e5 on 40 x 40; today's
+2.37e4 / 2.29e4).
 
 Whatever the correction adds is reported (:class:`Correction`): the taps, sum |c|, sum c, max |Delta| /
 |G_d,00| in the band and above it, Delta(-1), the base and corrected grid margins, LP rounds.

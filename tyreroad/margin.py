@@ -10,7 +10,8 @@ smallest spring that can put a root on the circle at theta is k_safe(theta) (a l
 theta = pi for uniform springs). :func:`patch_margin` evaluates this densely and cheaply:
 
 1. the circulant bound of :func:`tyreroad.stability.circulant_margin` (every theta of the grid, one
-   DFT per lag): where it is positive, p > 0 is proven for every contact set of the patch;
+   DFT per lag): where it is above the rounding level (MARGIN_TOLERANCE of the circulant's largest
+   |eigenvalue|), p > 0 is proven for every contact set of the patch;
 2. on the rest of the grid, p > 0 is certified on the patch's own matrix by a Cholesky factorisation of
    Herm(e^{i phi} G_d) - tol I at a phase tracked along theta (and phi = 0, +-pi/2) — a few times cheaper
    than an eigen-solve;

@@ -37,10 +37,11 @@ from .influence import OffsetInfluence
 from .kernel import LayerKernel
 from .solver import FFT_THRESHOLD
 
-#: Relative level (of the largest |entry| of G_d) below which a margin p counts as zero: G_d(1) and G_d(-1) are
-#: real, so their symbols' imaginary parts are rounding (~1e-20 m/N), whose sign must not certify p > 0 at
-#: phi = +-pi/2 (it did: the fold kernel of tread-rho2 on 20 x 20 was stored stable for every spring, with
-#: lambda_min G_d(-1) = -2.96e-5 m/N, a root at z = -1 for uniform springs of 3.38e4 N/m).
+#: Relative level below which a margin p counts as zero: of the largest |entry| of G_d on the patch's matrices,
+#: of the largest |eigenvalue| of its circulant in :func:`circulant_margin` (which bounds every entry). G_d(1)
+#: and G_d(-1) are real, so their symbols' imaginary parts are rounding (~1e-20 m/N), whose sign must not
+#: certify p > 0 at phi = +-pi/2 (it did: the fold kernel of tread-rho2 on 20 x 20 was stored stable for every
+#: spring, with lambda_min G_d(-1) = -2.96e-5 m/N, a root at z = -1 for uniform springs of 3.38e4 N/m).
 MARGIN_TOLERANCE = 1e-9
 
 logger = logging.getLogger(__name__)
