@@ -144,6 +144,29 @@ def test_dense_history_equals_plain_sum(nx, ny, n_lags, even):
     assert worst_relative(h, ref) < 1e-12
 
 
+@pytest.mark.parametrize("nx, ny", [(7, 5), (1, 6), (2, 9)])
+def test_dense_history_is_the_same_to_the_bit_on_any_thread_count(nx, ny):
+    """The target rows are split into one band per numba thread; every target sums in the same order
+    whatever the split, so one thread and two give identical bits (and equal the plain sum)."""
+    import numba
+
+    rng = np.random.default_rng(17)
+    n_lags = 9
+    g = random_kernel(rng, nx, ny, n_lags)
+    forces = sparse_forces(rng, 3 * n_lags, nx, ny)
+    saved = numba.get_num_threads()
+    try:
+        numba.set_num_threads(1)
+        one = run(DenseHistory(g, (nx, ny)), forces)
+        numba.set_num_threads(min(2, numba.config.NUMBA_NUM_THREADS))
+        two = run(DenseHistory(g, (nx, ny)), forces)
+    finally:
+        numba.set_num_threads(saved)
+    np.testing.assert_array_equal(one, two)
+    ref = np.array([reference_history(g, forces, n) for n in range(forces.shape[0])])
+    assert worst_relative(one, ref) < 1e-12
+
+
 @pytest.mark.parametrize("nx, ny, n_lags, even", [(3, 4, 5, False), (5, 5, 6, False), (5, 5, 6, True), (4, 3, 2, False)])
 def test_fft_history_equals_plain_sum(nx, ny, n_lags, even):
     rng = np.random.default_rng(12)

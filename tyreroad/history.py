@@ -25,7 +25,7 @@ from __future__ import annotations
 from typing import Protocol, Sequence, runtime_checkable
 
 import numpy as np
-from numba import njit, prange
+from numba import get_num_threads, njit, prange
 
 from . import checks
 from .convolution import OffsetConvolution, check_offset_kernel
@@ -65,31 +65,45 @@ class _StepCounter:
 # Dense offset-table history (the reference path)
 # --------------------------------------------------------------------------------------------
 @njit(cache=True, parallel=True)
-def _history_sum(kern_t, f_ring, nz_idx, nz_cnt, n, nx, ny, out):  # pragma: no cover - numba
+def _history_sum(kern_t, f_ring, nz_idx, nz_cnt, n, nx, ny, out, n_threads):  # pragma: no cover - numba
     """h[n] from the offset table kern_t[lag, dx, dy], visiting only loaded elements.
 
     Step s is stored in ring slot s mod D (D = ring depth = L - 1); ``nz_idx[slot, :nz_cnt[slot]]``
-    lists the flat indices of the elements with F != 0 at that step. Rows ex are independent, so
-    they run in parallel without races; within a row the sum runs over lags, then loaded
-    elements, in ascending order (the order fixes the round-off).
+    lists the flat indices of the elements with F != 0 at that step. The target rows ex are split
+    into one contiguous band per thread (``n_threads``, numba's current count: passed in, since reading it
+    here would keep the function out of numba's cache; no races); within a band the lags and loaded elements are
+    the outer loops and each source adds its contiguous window of the lag's table to every target
+    row, so that the innermost loop runs over a contiguous ey slice (vectorised; the previous order,
+    rows outermost, re-derived each source for every row: 4x slower on 20 x 20). Every target still
+    sums over lags, then loaded elements, in ascending order (the order fixes the round-off: the
+    result is the same to the bit whatever the thread count).
     """
     n_lag = kern_t.shape[0]
     depth = f_ring.shape[0]
     lmax = min(n_lag - 1, n)
-    for ex in prange(nx):
-        for ey in range(ny):
-            out[ex * ny + ey] = 0.0
+    n_band = max(min(n_threads, nx), 1)
+    for band in prange(n_band):
+        lo = band * nx // n_band
+        hi = (band + 1) * nx // n_band
+        acc = np.zeros((hi - lo, ny))
         for lag in range(1, lmax + 1):
             slot = (n - lag) % depth
+            table = kern_t[lag]
             for q in range(nz_cnt[slot]):
                 m = nz_idx[slot, q]
                 mx = m // ny
                 my = m - mx * ny
                 f = f_ring[slot, m]
-                row = ex - mx + nx - 1
-                off = ny - 1 - my
-                for ey in range(ny):
-                    out[ex * ny + ey] += kern_t[lag, row, ey + off] * f
+                row0 = nx - 1 - mx
+                col0 = ny - 1 - my
+                for ex in range(lo, hi):
+                    window = table[row0 + ex, col0:col0 + ny]
+                    target = acc[ex - lo]
+                    for ey in range(ny):
+                        target[ey] += window[ey] * f
+        for ex in range(lo, hi):
+            for ey in range(ny):
+                out[ex * ny + ey] = acc[ex - lo, ey]
 
 
 class DenseHistory:
@@ -125,7 +139,8 @@ class DenseHistory:
         self._steps.check_displacement(n, "DenseHistory")
         if self.n_lags > 1 and n > 0:
             nx, ny = self.shape
-            _history_sum(self._kern_t, self._f_ring, self._nz_idx, self._nz_cnt, n, nx, ny, self._out)
+            _history_sum(self._kern_t, self._f_ring, self._nz_idx, self._nz_cnt, n, nx, ny, self._out,
+                         get_num_threads())
         return self._out.copy()
 
     def record(self, n: int, force: np.ndarray) -> None:
