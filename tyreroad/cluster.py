@@ -131,8 +131,10 @@ def _lag_terms(steps: int, n_lags: int) -> int:
     """Lags summed over a dynamic run on the dense path: sum over steps n of min(n, n_lags).
 
     Times 1.2e-9 s m^2 it is the history-sum time of :func:`job_resources`, calibrated on the 20 x 20
-    load-unload cycle of 755 steps on 256 lags that takes 38 s dense (5 s on the FFT path, whose
-    model gives 6 s; :meth:`tyreroad.solver.SolverSettings.resolved_method`).
+    load-unload cycle of 755 steps on 256 lags that took 38 s dense (5 s on the FFT path, whose
+    model gives 6 s; :meth:`tyreroad.solver.SolverSettings.resolved_method`). Since session 24's loop
+    order of the dense lag sum the same cycle takes 12.7 s dense (3.8 s FFT): the estimate is kept, ~3x
+    generous for the dense path, since a run-time request that is too short kills the job.
     """
     short = min(steps, n_lags)
     return short * (short - 1) // 2 + max(0, steps - n_lags) * n_lags
