@@ -44,7 +44,8 @@ def _snakemake(tmp: Path, construction: str, materials, greens: dict, cores: int
     """Make ``materials``' greens files with ``construction`` in one Snakemake run; the results directory."""
     results = tmp / construction
     overlay = tmp / f"{construction}.yaml"
-    overlay.write_text(yaml.safe_dump({"results_dir": str(results), "greens": {**greens, "construction": construction}}))
+    overlay.write_text(yaml.safe_dump({"results_dir": str(results),
+                                       "greens": {**greens, "construction": construction}}))
     targets = [str(results / "greens" / f"{material}.nc") for material in materials]
     env = {**os.environ, "OPENBLAS_NUM_THREADS": "1", "PYTHONPATH": str(ROOT)}
     done = subprocess.run([sys.executable, "-m", "snakemake", f"-j{cores}", "--nolock", "--quiet", "all",

@@ -70,13 +70,13 @@ def _history_sum(kern_t, f_ring, nz_idx, nz_cnt, n, nx, ny, out, n_threads):  # 
 
     Step s is stored in ring slot s mod D (D = ring depth = L - 1); ``nz_idx[slot, :nz_cnt[slot]]``
     lists the flat indices of the elements with F != 0 at that step. The target rows ex are split
-    into one contiguous band per thread (``n_threads``, numba's current count: passed in, since reading it
-    here would keep the function out of numba's cache; no races); within a band the lags and loaded elements are
-    the outer loops and each source adds its contiguous window of the lag's table to every target
-    row, so that the innermost loop runs over a contiguous ey slice (vectorised; the previous order,
-    rows outermost, re-derived each source for every row: 4x slower on 20 x 20). Every target still
-    sums over lags, then loaded elements, in ascending order (the order fixes the round-off: the
-    result is the same to the bit whatever the thread count).
+    into one contiguous band per thread (``n_threads``: numba's current count, passed in because
+    reading it here would keep the function out of numba's cache). Within a band the lags and the
+    loaded elements are the outer loops and each source adds its window of the lag's table to every
+    target row, so that the innermost loop runs over a contiguous ey slice and vectorises (the
+    previous order, rows outermost, re-derived each source for every row: 4x slower on 20 x 20).
+    Every target still sums over lags, then loaded elements, in ascending order: the order fixes the
+    round-off, and the result is the same to the bit whatever the thread count.
     """
     n_lag = kern_t.shape[0]
     depth = f_ring.shape[0]
